@@ -1,0 +1,86 @@
+// OFF surfaces (Geomview Object File Format), as the CGAL data set ships them.
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "format_readers.h"
+#include "tet2spline/param/error.h"
+
+namespace tet2spline::detail {
+
+namespace {
+// Next line that is neither empty nor a comment; returns false at end of file.
+bool nextDataLine(std::istream& in, std::string& line, long& lineNo) {
+  while (std::getline(in, line)) {
+    ++lineNo;
+    auto hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    if (line.find_first_not_of(" \t\r") != std::string::npos) return true;
+  }
+  return false;
+}
+}  // namespace
+
+SurfaceMesh readOff(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throwInputError(path, 0, "cannot open file");
+  std::string line;
+  long lineNo = 0;
+  if (!nextDataLine(in, line, lineNo)) throwInputError(path, 0, "empty file");
+  std::istringstream header(line);
+  std::string magic;
+  header >> magic;
+  long nv = -1, nf = -1, ne = 0;
+  if (magic == "OFF") {
+    if (!(header >> nv)) {
+      if (!nextDataLine(in, line, lineNo)) throwInputError(path, lineNo, "missing vertex/face counts");
+      header.clear();
+      header.str(line);
+      header >> nv;
+    }
+    header >> nf >> ne;
+  } else if (magic.size() > 3 && magic.compare(magic.size() - 3, 3, "OFF") == 0) {
+    throwInputError(path, lineNo, "OFF variant '" + magic + "' is not supported (plain OFF only)");
+  } else {
+    throwInputError(path, lineNo, "wrong header '" + magic.substr(0, 20) + "' (expected OFF)");
+  }
+  if (!header || nv < 0 || nf < 0) throwInputError(path, lineNo, "malformed vertex/face counts");
+  if (nv < 4 || nf < 4) throwInputError(path, lineNo, "too few vertices or faces for a closed surface");
+
+  SurfaceMesh s;
+  s.V.resize(nv, 3);
+  for (long i = 0; i < nv; ++i) {
+    if (!nextDataLine(in, line, lineNo))
+      throwInputError(path, lineNo, "truncated: expected " + std::to_string(nv) + " vertices, got " + std::to_string(i));
+    std::istringstream ls(line);
+    double x, y, z;
+    if (!(ls >> x >> y >> z)) throwInputError(path, lineNo, "malformed vertex coordinates");
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+      throwInputError(path, lineNo, "vertex " + std::to_string(i) + " has a NaN or infinite coordinate");
+    s.V.row(i) << x, y, z;
+  }
+  std::vector<Eigen::Vector3i> tris;
+  tris.reserve(nf);
+  for (long f = 0; f < nf; ++f) {
+    if (!nextDataLine(in, line, lineNo))
+      throwInputError(path, lineNo, "truncated: expected " + std::to_string(nf) + " faces, got " + std::to_string(f));
+    std::istringstream ls(line);
+    long k;
+    if (!(ls >> k) || k < 3) throwInputError(path, lineNo, "malformed face (needs a vertex count >= 3)");
+    std::vector<int> idx(k);
+    for (long j = 0; j < k; ++j) {
+      long v;
+      if (!(ls >> v)) throwInputError(path, lineNo, "face has fewer indices than its count " + std::to_string(k));
+      if (v < 0 || v >= nv)
+        throwInputError(path, lineNo, "face index " + std::to_string(v) + " out of range [0, " + std::to_string(nv) + ")");
+      idx[j] = static_cast<int>(v);
+    }
+    for (long j = 1; j + 1 < k; ++j) tris.emplace_back(idx[0], idx[j], idx[j + 1]);  // fan of a convex polygon
+  }
+  s.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
+  for (size_t i = 0; i < tris.size(); ++i) s.F.row(static_cast<Eigen::Index>(i)) = tris[i].transpose();
+  return s;
+}
+
+}  // namespace tet2spline::detail

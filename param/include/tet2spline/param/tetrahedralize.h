@@ -1,0 +1,31 @@
+#pragma once
+/// Tetrahedral meshing of closed surfaces with TetGen (used as a library).
+///
+/// The surface may hold nested closed shells. Without voids each nesting level
+/// is a region: the space between the outer shell and the shells directly
+/// inside it is region 1, the inside of an inner shell region 2, 3, ... (one
+/// tag per inner shell, in the order of the shells' first faces). With
+/// `voids`, inner shells bound voids: their inside is meshed too and tagged as
+/// a void region (listed in TetMesh::voidRegions), so the filled solid is a
+/// topological ball (design.md, "Voids").
+///
+/// The surface is validated first (topology.h: closed, manifold, genus 0 per
+/// shell, no self-intersection) so that TetGen never sees bad input.
+
+#include "tet2spline/param/tet_mesh.h"
+
+namespace tet2spline {
+
+struct TetrahedralizeOptions {
+  double radiusEdgeRatio = 1.5;  ///< TetGen quality bound (-q); 0 = no quality refinement
+  double maxVolume = 0;          ///< largest tet volume (-a); 0 = no limit
+  double relativeSize = 0;       ///< if > 0, max edge ≈ relativeSize × bbox diagonal (overrides maxVolume)
+  bool voids = false;            ///< inner shells are voids (filled, tagged) instead of material regions
+};
+
+/// Throws Error(Input/Topology) for an invalid surface (see topology.h) and
+/// Error(Numerical) if TetGen fails; the message names `sourceName`.
+TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& options = {},
+                       const std::string& sourceName = "surface");
+
+}  // namespace tet2spline

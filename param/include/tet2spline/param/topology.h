@@ -1,0 +1,86 @@
+#pragma once
+/// Topology and validity of tetrahedral solids and triangle surfaces
+/// (design.md, "Topology"). Genus of a closed shell: g = (2 − χ)/2, χ = V − E + F.
+/// Inverted and degenerate tets are decided with exact orientation predicates.
+
+#include <string>
+#include <vector>
+
+#include "tet2spline/param/tet_mesh.h"
+
+namespace tet2spline {
+
+/// One closed boundary shell (or connected surface component).
+struct ShellInfo {
+  int vertices = 0;
+  int edges = 0;
+  int faces = 0;
+  int eulerCharacteristic = 0;
+  int genus = 0;           ///< (2 − χ)/2 for closed shells; −1 when the shell is open
+  bool closed = true;
+  double enclosedVolume = 0; ///< signed volume enclosed (outward normals give > 0)
+};
+
+/// Everything `tet2spline check` reports about a solid.
+struct SolidReport {
+  int vertices = 0;
+  int tets = 0;
+  int components = 0;              ///< connected components of tets (sharing a face)
+  int unusedVertices = 0;
+  int duplicateVertices = 0;       ///< vertices at exactly the position of another one
+  int invertedTets = 0;            ///< exact orient3d < 0
+  int degenerateTets = 0;          ///< exact orient3d == 0
+  int nonManifoldBoundaryEdges = 0;
+  int nonManifoldBoundaryVertices = 0;
+  std::vector<ShellInfo> shells;   ///< boundary shells, outer shell first
+  int genus = 0;                   ///< genus of the outer shell
+  int voids = 0;                   ///< inner boundary shells, plus filled void regions
+  std::vector<int> regions;        ///< distinct region tags, ascending
+  std::vector<std::string> problems; ///< one sentence per reason the solid is refused
+  bool valid() const { return problems.empty(); }
+};
+
+SolidReport analyzeSolid(const TetMesh& mesh);
+
+/// If every tet is inverted, flips them all (a mesh written with the other
+/// orientation convention) and returns true. Otherwise leaves the mesh alone.
+bool reorientIfAllInverted(TetMesh& mesh);
+
+/// Throws Error(Topology) (several components, non-manifold, genus > 0) or
+/// Error(Input) (inverted or degenerate tets) with the first problem of
+/// `report`, prefixed by "file: ". Does nothing for a valid report.
+void requireValidSolid(const SolidReport& report, const std::string& file);
+
+/// Topology of a triangle surface that should bound a solid.
+struct SurfaceReport {
+  int vertices = 0;
+  int faces = 0;
+  int boundaryEdges = 0;            ///< edges with one incident triangle (open surface)
+  int nonManifoldEdges = 0;         ///< edges with more than two incident triangles
+  int nonManifoldVertices = 0;      ///< vertices whose triangle fan is not one disk/cycle
+  int degenerateFaces = 0;          ///< zero-area or repeated-index triangles
+  int selfIntersections = 0;        ///< intersecting pairs of non-adjacent triangles (capped)
+  std::vector<ShellInfo> shells;    ///< connected components
+  std::vector<std::vector<int>> shellFaces; ///< face indices of each shell
+  std::vector<std::string> problems;
+  bool valid() const { return problems.empty(); }
+};
+
+/// Components, manifoldness, genus per shell, and (CGAL) self-intersections.
+SurfaceReport analyzeSurface(const SurfaceMesh& surface, bool checkSelfIntersections = true);
+
+/// Throws with the first problem of `report`, prefixed by "file: ":
+/// Error(Topology) for open, non-manifold or genus > 0; Error(Input) for
+/// self-intersecting or degenerate surfaces.
+void requireValidSurface(const SurfaceReport& report, const std::string& file);
+
+/// The boundary triangles of a tet mesh, oriented outward, indexing mesh.V.
+Eigen::MatrixX3i boundaryFaces(const TetMesh& mesh);
+
+/// Exact sign of det[b − a, c − a, d − a]: +1, 0 or −1.
+int orient3d(const double* a, const double* b, const double* c, const double* d);
+
+/// Number of tets of (X, T) with exact orientation <= 0.
+int countNonPositiveTets(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T);
+
+}  // namespace tet2spline
