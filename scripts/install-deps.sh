@@ -8,6 +8,7 @@ packages=(
   libtet1.5-dev libceres-dev libsuitesparse-dev libtbb-dev
   libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev libocct-data-exchange-dev
   libgtest-dev libcli11-dev nlohmann-json3-dev zlib1g-dev
+  gmsh tetgen
 )
 missing=()
 for p in "${packages[@]}"; do
