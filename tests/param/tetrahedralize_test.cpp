@@ -1,0 +1,195 @@
+// TetGen meshing of closed surfaces: synthetic nested spheres (regions and
+// voids), and the real libcgal-demo surfaces of design.md, valid and invalid.
+#include "tet2spline/param/tetrahedralize.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+
+#include "param/test_shapes.h"
+#include "test_data.h"
+#include "tet2spline/io/mesh_io.h"
+#include "tet2spline/param/topology.h"
+
+using namespace tet2spline;
+
+namespace {
+
+/// Region tag -> summed tet volume.
+std::map<int, double> regionVolumes(const TetMesh& m) {
+  std::map<int, double> v;
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t) v[m.region(t)] += t2stest::tetVolume(m, t);
+  return v;
+}
+
+/// Volume enclosed by a triangulated sphere (the polyhedron, not the ball).
+double enclosedVolume(const SurfaceMesh& s) {
+  return std::abs(analyzeSurface(s, false).shells.at(0).enclosedVolume);
+}
+
+void expectValidBall(const TetMesh& m, const std::string& name) {
+  const SolidReport r = analyzeSolid(m);
+  EXPECT_TRUE(r.valid()) << name << ": " << (r.problems.empty() ? "" : r.problems[0]);
+  EXPECT_EQ(r.components, 1) << name;
+  EXPECT_EQ(r.genus, 0) << name;
+  EXPECT_EQ(r.invertedTets, 0) << name;
+  EXPECT_EQ(r.degenerateTets, 0) << name;
+  EXPECT_EQ(r.unusedVertices, 0) << name;
+  EXPECT_EQ(countNonPositiveTets(m.V, m.T), 0) << name;
+}
+
+ErrorKind tetrahedralizeError(const SurfaceMesh& s, const std::string& name, std::string* message = nullptr) {
+  try {
+    tetrahedralize(s, {}, name);
+  } catch (const Error& e) {
+    if (message) *message = e.what();
+    EXPECT_EQ(std::string(e.what()).rfind(name + ": ", 0), 0u) << e.what();
+    return e.kind();
+  }
+  ADD_FAILURE() << name << " was meshed";
+  return ErrorKind::Usage;
+}
+
+}  // namespace
+
+TEST(Tetrahedralize, SphereGivesOnePositiveBall) {
+  const SurfaceMesh s = t2stest::sphere(3);
+  const TetMesh m = tetrahedralize(s);
+  expectValidBall(m, "sphere");
+  EXPECT_EQ(analyzeSolid(m).regions, std::vector<int>{1});
+  EXPECT_TRUE(m.voidRegions.empty());
+  EXPECT_NEAR(t2stest::totalVolume(m), enclosedVolume(s), 1e-12 * enclosedVolume(s));
+}
+
+TEST(Tetrahedralize, InwardOrientedSphereIsMeshedTheSame) {
+  const SurfaceMesh s = t2stest::sphere(2, 1, Eigen::RowVector3d::Zero(), true);
+  const TetMesh m = tetrahedralize(s);
+  expectValidBall(m, "inward sphere");
+  EXPECT_NEAR(t2stest::totalVolume(m), enclosedVolume(s), 1e-12);
+}
+
+TEST(Tetrahedralize, NestedSphereIsASecondRegion) {
+  const SurfaceMesh outer = t2stest::sphere(3, 2), inner = t2stest::sphere(2, 0.7, Eigen::RowVector3d(0.3, 0, 0));
+  const TetMesh m = tetrahedralize(t2stest::merge(outer, inner));
+  expectValidBall(m, "nested");
+  const auto vol = regionVolumes(m);
+  ASSERT_EQ(vol.size(), 2u);
+  EXPECT_NEAR(vol.at(2), enclosedVolume(inner), 1e-12);
+  EXPECT_NEAR(vol.at(1), enclosedVolume(outer) - enclosedVolume(inner), 1e-12);
+  EXPECT_TRUE(m.voidRegions.empty());
+  EXPECT_EQ(analyzeSolid(m).voids, 0);
+}
+
+TEST(Tetrahedralize, InnerShellListedFirstStillGetsTagTwo) {
+  const SurfaceMesh outer = t2stest::sphere(3, 2), inner = t2stest::sphere(2, 0.5);
+  const TetMesh m = tetrahedralize(t2stest::merge(inner, outer));
+  const auto vol = regionVolumes(m);
+  ASSERT_EQ(vol.size(), 2u);
+  EXPECT_NEAR(vol.at(1), enclosedVolume(outer) - enclosedVolume(inner), 1e-12);
+}
+
+TEST(Tetrahedralize, VoidIsFilledAndTagged) {
+  const SurfaceMesh outer = t2stest::sphere(3, 2);
+  const SurfaceMesh cavity1 = t2stest::sphere(2, 0.5, Eigen::RowVector3d(-0.8, 0, 0), true);
+  const SurfaceMesh cavity2 = t2stest::sphere(2, 0.4, Eigen::RowVector3d(0.8, 0, 0));
+  TetrahedralizeOptions options;
+  options.voids = true;
+  const TetMesh m = tetrahedralize(t2stest::merge(t2stest::merge(outer, cavity1), cavity2), options);
+  expectValidBall(m, "voids");
+  EXPECT_EQ(m.voidRegions, (std::set<int>{2, 3}));
+  const SolidReport r = analyzeSolid(m);
+  EXPECT_EQ(r.voids, 2);
+  EXPECT_EQ(r.shells.size(), 1u);  // filled: the solid is a ball
+  const auto vol = regionVolumes(m);
+  EXPECT_NEAR(vol.at(2), enclosedVolume(cavity1), 1e-12);
+  EXPECT_NEAR(vol.at(3), enclosedVolume(cavity2), 1e-12);
+}
+
+TEST(Tetrahedralize, OneVoid) {
+  TetrahedralizeOptions options;
+  options.voids = true;
+  const TetMesh m = tetrahedralize(t2stest::merge(t2stest::sphere(3, 2), t2stest::sphere(2, 0.5)), options);
+  EXPECT_EQ(m.voidRegions.size(), 1u);
+  EXPECT_EQ(analyzeSolid(m).voids, 1);
+}
+
+TEST(Tetrahedralize, IslandInsideAVoidIsRefused) {
+  TetrahedralizeOptions options;
+  options.voids = true;
+  const SurfaceMesh s = t2stest::merge(t2stest::merge(t2stest::sphere(2, 3), t2stest::sphere(2, 2)), t2stest::sphere(2, 1));
+  EXPECT_THROW(tetrahedralize(s, options), Error);
+  // Without voids the three levels are three regions.
+  EXPECT_EQ(regionVolumes(tetrahedralize(s)).size(), 3u);
+}
+
+TEST(Tetrahedralize, SideBySideSolidsAreRefused) {
+  const SurfaceMesh s = t2stest::merge(t2stest::sphere(2), t2stest::sphere(2, 1, Eigen::RowVector3d(3, 0, 0)));
+  std::string message;
+  EXPECT_EQ(tetrahedralizeError(s, "two.off", &message), ErrorKind::Topology);
+  EXPECT_NE(message.find("2 separate solids"), std::string::npos) << message;
+}
+
+TEST(Tetrahedralize, TorusIsRefusedWithItsGenus) {
+  std::string message;
+  EXPECT_EQ(tetrahedralizeError(t2stest::torus(), "torus.off", &message), ErrorKind::Topology);
+  EXPECT_NE(message.find("genus 1"), std::string::npos) << message;
+}
+
+TEST(Tetrahedralize, SizeOptionsRefine) {
+  const SurfaceMesh s = t2stest::sphere(2);
+  const TetMesh coarse = tetrahedralize(s);
+  TetrahedralizeOptions options;
+  options.relativeSize = 0.1;  // edges ≈ 0.1 × diagonal ≈ 0.35
+  const TetMesh fine = tetrahedralize(s, options);
+  EXPECT_GT(fine.T.rows(), coarse.T.rows());
+  const double diag = 2 * std::sqrt(3.0), edge = 0.1 * diag;
+  const double maxVolume = edge * edge * edge / (6 * std::sqrt(2.0));
+  for (Eigen::Index t = 0; t < fine.T.rows(); ++t) EXPECT_LE(t2stest::tetVolume(fine, t), maxVolume * (1 + 1e-9));
+  expectValidBall(fine, "fine sphere");
+}
+
+TEST(Tetrahedralize, IsDeterministic) {
+  const SurfaceMesh s = t2stest::sphere(2);
+  const TetMesh a = tetrahedralize(s), b = tetrahedralize(s);
+  EXPECT_TRUE(a.V == b.V);
+  EXPECT_TRUE(a.T == b.T);
+}
+
+// Real surfaces (design.md, "Test data"). bunny00 lives in
+// tetrahedralize_slow_test.cpp.
+
+TEST(TetrahedralizeReal, Genus0MeshesGiveValidBallsWithTheirVolume) {
+  for (const char* name : t2stest::kGenus0Meshes) {
+    if (std::string(name) == "bunny00") continue;
+    const SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
+    const TetMesh m = tetrahedralize(s, {}, name);
+    expectValidBall(m, name);
+    const double surfaceVolume = enclosedVolume(s);
+    EXPECT_NEAR(t2stest::totalVolume(m), surfaceVolume, 1e-9 * surfaceVolume) << name;
+  }
+}
+
+TEST(TetrahedralizeReal, HandlesAreRefusedWithTheirGenus) {
+  for (const char* name : {"elephant", "femur", "knot", "rotor"}) {
+    std::string message;
+    EXPECT_EQ(tetrahedralizeError(readSurface(t2stest::cgalMesh(name)), name, &message), ErrorKind::Topology);
+    EXPECT_NE(message.find("has genus "), std::string::npos) << message;
+  }
+}
+
+TEST(TetrahedralizeReal, SelfIntersectingSurfacesAreRefused) {
+  for (const char* name : {"cow", "camel", "man"}) {
+    std::string message;
+    EXPECT_EQ(tetrahedralizeError(readSurface(t2stest::cgalMesh(name)), name, &message), ErrorKind::Input);
+    EXPECT_NE(message.find("intersects itself"), std::string::npos) << message;
+  }
+}
+
+TEST(TetrahedralizeReal, OpenSurfacesAreRefused) {
+  for (const char* name : {"lion", "head"}) {
+    std::string message;
+    EXPECT_EQ(tetrahedralizeError(readSurface(t2stest::cgalMesh(name)), name, &message), ErrorKind::Topology);
+    EXPECT_NE(message.find("open"), std::string::npos) << message;
+  }
+}
