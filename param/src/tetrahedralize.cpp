@@ -136,8 +136,12 @@ std::string tetgenFailure(int code) {
 
 TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& options,
                        const std::string& sourceName) {
-  if (options.radiusEdgeRatio < 0 || options.maxVolume < 0 || options.relativeSize < 0)
-    throw Error(ErrorKind::Usage, "tetrahedralize: negative quality ratio or size");
+  // TetGen's refinement need not terminate for radius-edge bounds below 1.
+  if (options.radiusEdgeRatio != 0 && !(options.radiusEdgeRatio >= 1))
+    throw Error(ErrorKind::Usage, "tetrahedralize: radius-edge ratio " + std::to_string(options.radiusEdgeRatio) +
+                                      " must be 0 (no refinement) or at least 1");
+  if (!(options.maxVolume >= 0) || !(options.relativeSize >= 0))
+    throw Error(ErrorKind::Usage, "tetrahedralize: negative or NaN size");
   const SurfaceReport report = analyzeSurface(surface, true);
   requireValidSurface(report, sourceName);
   const Shells shells(surface, report);
@@ -181,15 +185,16 @@ TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& 
   for (int s = 0; s < nS; ++s)
     if (parent[s] >= 0) children[parent[s]].push_back(s);
 
-  // TetGen input: the used vertices and one facet per triangle.
+  // TetGen input: the used vertices (in their order) and one facet per triangle.
   std::vector<int> newIndex(surface.V.rows(), -1);
-  std::vector<int> oldIndex;
   for (Eigen::Index f = 0; f < surface.F.rows(); ++f)
-    for (int k = 0; k < 3; ++k)
-      if (newIndex[surface.F(f, k)] < 0) {
-        newIndex[surface.F(f, k)] = static_cast<int>(oldIndex.size());
-        oldIndex.push_back(surface.F(f, k));
-      }
+    for (int k = 0; k < 3; ++k) newIndex[surface.F(f, k)] = 0;
+  std::vector<int> oldIndex;
+  for (Eigen::Index v = 0; v < surface.V.rows(); ++v)
+    if (newIndex[v] == 0) {
+      newIndex[v] = static_cast<int>(oldIndex.size());
+      oldIndex.push_back(static_cast<int>(v));
+    }
   tetgenio in, out;
   in.firstnumber = 0;
   in.numberofpoints = static_cast<int>(oldIndex.size());

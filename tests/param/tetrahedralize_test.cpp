@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <map>
 
 #include "param/test_shapes.h"
@@ -60,6 +63,35 @@ TEST(Tetrahedralize, SphereGivesOnePositiveBall) {
   EXPECT_EQ(analyzeSolid(m).regions, std::vector<int>{1});
   EXPECT_TRUE(m.voidRegions.empty());
   EXPECT_NEAR(t2stest::totalVolume(m), enclosedVolume(s), 1e-12 * enclosedVolume(s));
+}
+
+TEST(Tetrahedralize, SurfaceVerticesComeFirstUnchanged) {
+  SurfaceMesh s = t2stest::sphere(2);
+  // An unused vertex in the middle of the list is skipped, the order kept.
+  s.V.conservativeResize(s.V.rows() + 1, 3);
+  s.V.row(s.V.rows() - 1) = s.V.row(3);
+  s.V.row(3) << 7, 7, 7;
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (s.F(f, k) == 3) s.F(f, k) = int(s.V.rows()) - 1;
+  const TetMesh m = tetrahedralize(s);
+  ASSERT_GE(m.V.rows(), s.V.rows() - 1);
+  for (Eigen::Index v = 0, out = 0; v < s.V.rows(); ++v) {
+    if (v == 3) continue;
+    EXPECT_TRUE(m.V.row(out) == s.V.row(v)) << v;
+    ++out;
+  }
+}
+
+TEST(Tetrahedralize, BadOptionsAreUsageErrors) {
+  TetrahedralizeOptions options;
+  options.radiusEdgeRatio = 0.5;
+  try {
+    tetrahedralize(t2stest::sphere(1), options);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Usage);
+  }
 }
 
 TEST(Tetrahedralize, InwardOrientedSphereIsMeshedTheSame) {
@@ -159,16 +191,28 @@ TEST(Tetrahedralize, IsDeterministic) {
 // Real surfaces (design.md, "Test data"). bunny00 lives in
 // tetrahedralize_slow_test.cpp.
 
-TEST(TetrahedralizeReal, Genus0MeshesGiveValidBallsWithTheirVolume) {
-  for (const char* name : t2stest::kGenus0Meshes) {
-    if (std::string(name) == "bunny00") continue;
-    const SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
-    const TetMesh m = tetrahedralize(s, {}, name);
-    expectValidBall(m, name);
-    const double surfaceVolume = enclosedVolume(s);
-    EXPECT_NEAR(t2stest::totalVolume(m), surfaceVolume, 1e-9 * surfaceVolume) << name;
-  }
+class Genus0Mesh : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Genus0Mesh, GivesAValidBallWithItsVolume) {
+  const std::string name = GetParam();
+  const SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
+  const auto t0 = std::chrono::steady_clock::now();
+  const TetMesh m = tetrahedralize(s, {}, name);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("tetrahedralize(%s): %lld tets, %.2f s\n", name.c_str(), (long long)m.T.rows(), seconds);
+  expectValidBall(m, name);
+  const double surfaceVolume = enclosedVolume(s);
+  EXPECT_NEAR(t2stest::totalVolume(m), surfaceVolume, 1e-9 * surfaceVolume) << name;
 }
+
+INSTANTIATE_TEST_SUITE_P(TetrahedralizeReal, Genus0Mesh,
+                         ::testing::Values("blob-closed", "part", "spool", "hand", "blobby", "triceratops",
+                                           "fandisk", "retinal", "homer"),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
 
 TEST(TetrahedralizeReal, HandlesAreRefusedWithTheirGenus) {
   for (const char* name : {"elephant", "femur", "knot", "rotor"}) {
