@@ -151,10 +151,13 @@ TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& 
   // not intersect). The parent is the smallest container.
   std::vector<int> parent(nS, -1), depth(nS, 0);
   for (int i = 0; i < nS; ++i) {
-    const Eigen::Vector3d p = shells.vertex(shells.face(shells.faces(i)[0])[0]);
     for (int j = 0; j < nS; ++j) {
       if (j == i) continue;
-      const int in = shells.inside(j, p);
+      // A vertex of i very close to j leaves the winding number undecided: try a few.
+      int in = -1;
+      const auto& faces = shells.faces(i);
+      for (std::size_t k = 0; k < faces.size() && k < 8 && in < 0; ++k)
+        in = shells.inside(j, shells.vertex(shells.face(faces[k * faces.size() / 8])[0]));
       if (in < 0)
         throw Error(ErrorKind::Input, sourceName + ": boundary shells " + std::to_string(i + 1) + " and " +
                                           std::to_string(j + 1) + " nearly touch");
