@@ -15,78 +15,18 @@
 #include <vector>
 
 #include "tet2spline/param/error.h"
+#include "shell_geometry.h"
 #include "tet2spline/param/topology.h"
 
 namespace tet2spline {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-/// Geometry of the closed shells of a validated surface.
-class Shells {
- public:
-  Shells(const SurfaceMesh& surface, const SurfaceReport& report) : V_(surface.V), F_(surface.F), report_(report) {
-    const auto n = report.shells.size();
-    lo_.resize(n), hi_.resize(n);
-    for (std::size_t s = 0; s < n; ++s) {
-      lo_[s].setConstant(std::numeric_limits<double>::infinity());
-      hi_[s].setConstant(-std::numeric_limits<double>::infinity());
-      for (int f : report.shellFaces[s])
-        for (int k = 0; k < 3; ++k) {
-          lo_[s] = lo_[s].cwiseMin(V_.row(F_(f, k)).transpose());
-          hi_[s] = hi_[s].cwiseMax(V_.row(F_(f, k)).transpose());
-        }
-    }
-  }
-
-  int size() const { return static_cast<int>(report_.shells.size()); }
-  /// +1 when the shell's triangles face outward (positive enclosed volume).
-  double sign(int s) const { return report_.shells[s].enclosedVolume >= 0 ? 1.0 : -1.0; }
-  double volume(int s) const { return std::abs(report_.shells[s].enclosedVolume); }
-  const std::vector<int>& faces(int s) const { return report_.shellFaces[s]; }
-
-  /// Winding number of shell s about p, for the shell oriented outward: 1
-  /// strictly inside, 0 outside. Sum of the triangles' signed solid angles
-  /// (Van Oosterom and Strackee 1983) over 4π; it is an integer up to
-  /// rounding, so only its nearest integer is used.
-  double winding(int s, const Eigen::Vector3d& p) const {
-    if ((p.array() < lo_[s].array()).any() || (p.array() > hi_[s].array()).any()) return 0;
-    double sum = 0;
-    for (int f : report_.shellFaces[s]) {
-      const Eigen::Vector3d a = V_.row(F_(f, 0)).transpose() - p, b = V_.row(F_(f, 1)).transpose() - p,
-                            c = V_.row(F_(f, 2)).transpose() - p;
-      const double la = a.norm(), lb = b.norm(), lc = c.norm();
-      const double num = a.dot(b.cross(c));
-      const double den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
-      sum += 2 * std::atan2(num, den);
-    }
-    return sign(s) * sum / (4 * kPi);
-  }
-
-  /// Whether p is inside shell s, or nothing when p is too close to tell.
-  int inside(int s, const Eigen::Vector3d& p) const {
-    const double w = winding(s, p);
-    const double r = std::round(w);
-    if (std::abs(w - r) > 0.2) return -1;
-    return r != 0 ? 1 : 0;
-  }
-
-  Eigen::Vector3d vertex(int v) const { return V_.row(v).transpose(); }
-  Eigen::Vector3i face(int f) const { return F_.row(f).transpose(); }
-
- private:
-  const Eigen::MatrixX3d& V_;
-  const Eigen::MatrixX3i& F_;
-  const SurfaceReport& report_;
-  std::vector<Eigen::Vector3d> lo_, hi_;
-};
-
 /// A point strictly inside shell s and outside each of `children`: a small
 /// step inward from the centroid of one of s's larger triangles, verified by
 /// winding numbers (a step that leaves the region is retried shorter or from
 /// another triangle).
-bool findSeed(const Shells& shells, int s, const std::vector<int>& children, Eigen::Vector3d& seed) {
+bool findSeed(const ShellGeometry& shells, int s, const std::vector<int>& children, Eigen::Vector3d& seed) {
   std::vector<std::pair<double, int>> byArea;
   for (int f : shells.faces(s)) {
     const Eigen::Vector3i t = shells.face(f);
@@ -144,33 +84,12 @@ TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& 
     throw Error(ErrorKind::Usage, "tetrahedralize: negative or NaN size");
   const SurfaceReport report = analyzeSurface(surface, true);
   requireValidSurface(report, sourceName);
-  const Shells shells(surface, report);
+  const ShellGeometry shells(surface, report);
   const int nS = shells.size();
-
-  // Nesting: shell i is inside shell j when one of its vertices is (shells do
-  // not intersect). The parent is the smallest container.
-  std::vector<int> parent(nS, -1), depth(nS, 0);
-  for (int i = 0; i < nS; ++i) {
-    for (int j = 0; j < nS; ++j) {
-      if (j == i) continue;
-      // A vertex of i very close to j leaves the winding number undecided: try a few.
-      int in = -1;
-      const auto& faces = shells.faces(i);
-      for (std::size_t k = 0; k < faces.size() && k < 8 && in < 0; ++k)
-        in = shells.inside(j, shells.vertex(shells.face(faces[k * faces.size() / 8])[0]));
-      if (in < 0)
-        throw Error(ErrorKind::Input, sourceName + ": boundary shells " + std::to_string(i + 1) + " and " +
-                                          std::to_string(j + 1) + " nearly touch");
-      if (in == 1) {
-        ++depth[i];
-        if (parent[i] < 0 || shells.volume(j) < shells.volume(parent[i])) parent[i] = j;
-      }
-    }
-  }
-  const int roots = static_cast<int>(std::count(depth.begin(), depth.end(), 0));
-  if (roots != 1)
-    throw Error(ErrorKind::Topology, sourceName + ": the surface bounds " + std::to_string(roots) +
-                                         " separate solids side by side; expected one solid");
+  const std::vector<int>& parent = report.shellParent;
+  const std::vector<int>& depth = report.shellDepth;
+  if (static_cast<int>(parent.size()) != nS || static_cast<int>(depth.size()) != nS)
+    throw Error(ErrorKind::Numerical, sourceName + ": the nesting of the boundary shells is unknown");
   for (int i = 0; i < nS; ++i)
     if (options.voids && depth[i] >= 2)
       throw Error(ErrorKind::Topology, sourceName + ": boundary shell " + std::to_string(i + 1) +

@@ -13,6 +13,7 @@
 #include <numeric>
 
 #include "self_intersection.h"
+#include "shell_geometry.h"
 
 namespace tet2spline {
 
@@ -531,6 +532,21 @@ SurfaceReport analyzeSurface(const SurfaceMesh& surface, bool checkSelfIntersect
   if (r.duplicateVertices > 0 && r.boundaryEdges == 0)
     problems.add(ErrorKind::Input, plural(r.duplicateVertices, "vertex lies", "vertices lie") +
                                        " exactly on another vertex (the surface touches itself there)");
+  // Nesting needs closed shells that do not cross each other.
+  if (r.problems.empty() && (r.selfIntersectionsChecked || !checkSelfIntersections)) {
+    const ShellGeometry geometry(surface, r);
+    int a = -1, b = -1;
+    if (!geometry.nesting(r.shellParent, r.shellDepth, a, b)) {
+      r.shellParent.clear(), r.shellDepth.clear();
+      problems.add(ErrorKind::Input, "boundary shells " + std::to_string(a + 1) + " and " + std::to_string(b + 1) +
+                                         " nearly touch (inside or outside cannot be told)");
+    } else {
+      const long roots = std::count(r.shellDepth.begin(), r.shellDepth.end(), 0);
+      if (roots > 1)
+        problems.add(ErrorKind::Topology, "the surface bounds " + std::to_string(roots) +
+                                              " separate solids side by side; expected one solid");
+    }
+  }
   // The outer shell is the one enclosing the largest |volume|.
   int outer = 0;
   for (std::size_t s = 1; s < r.shells.size(); ++s)

@@ -259,6 +259,28 @@ TEST(AnalyzeSurface, IntersectingSpheresSelfIntersect) {
   EXPECT_EQ(r.problemKinds[0], ErrorKind::Input);
 }
 
+TEST(AnalyzeSurface, NestingOfShells) {
+  // Outer sphere, a cavity (inward) with an island inside, and a second cavity.
+  const SurfaceMesh s = t2stest::merge(
+      t2stest::merge(t2stest::merge(t2stest::sphere(1, 0.5, Eigen::RowVector3d(-1, 0, 0)),  // island, shell 1
+                                    t2stest::sphere(2, 4)),                                // outer, shell 2
+                     t2stest::sphere(2, 1.2, Eigen::RowVector3d(-1, 0, 0), true)),         // cavity, shell 3
+      t2stest::sphere(1, 0.5, Eigen::RowVector3d(2, 0, 0), true));                         // cavity, shell 4
+  const SurfaceReport r = analyzeSurface(s);
+  EXPECT_TRUE(r.valid()) << r.problems[0];
+  EXPECT_EQ(r.shellParent, (std::vector<int>{2, -1, 1, 1}));
+  EXPECT_EQ(r.shellDepth, (std::vector<int>{2, 0, 1, 1}));
+}
+
+TEST(AnalyzeSurface, SideBySideShellsAreSeparateSolids) {
+  const SurfaceReport r =
+      analyzeSurface(t2stest::merge(t2stest::sphere(1), t2stest::sphere(1, 1, Eigen::RowVector3d(3, 0, 0))));
+  EXPECT_EQ(r.shellDepth, (std::vector<int>{0, 0}));
+  ASSERT_FALSE(r.valid());
+  EXPECT_EQ(r.problems[0], "the surface bounds 2 separate solids side by side; expected one solid");
+  EXPECT_EQ(r.problemKinds[0], ErrorKind::Topology);
+}
+
 TEST(AnalyzeSurface, DegenerateTriangleIsReported) {
   SurfaceMesh s = t2stest::sphere(1);
   s.F(0, 2) = s.F(0, 1);

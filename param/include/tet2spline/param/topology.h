@@ -80,6 +80,11 @@ struct SurfaceReport {
                                          ///< manifold triangle mesh (then it is refused anyway)
   std::vector<ShellInfo> shells;    ///< connected components, in the order of their first faces
   std::vector<std::vector<int>> shellFaces; ///< face indices of each shell
+  /// Nesting, known when the shells are closed, manifold and do not
+  /// intersect (else empty): the innermost shell containing each shell (−1
+  /// for none) and the number of shells containing it (winding numbers).
+  std::vector<int> shellParent;
+  std::vector<int> shellDepth;
   std::vector<std::string> problems;
   std::vector<ErrorKind> problemKinds; ///< Topology or Input, one per problem
   bool valid() const { return problems.empty(); }
@@ -88,7 +93,9 @@ struct SurfaceReport {
 /// Self-intersection counting stops at this many pairs of triangles.
 constexpr int kMaxSelfIntersections = 1000;
 
-/// Components, manifoldness, genus per shell, and (CGAL) self-intersections.
+/// Components, manifoldness, genus per shell, (CGAL) self-intersections, and
+/// the nesting of closed shells: more than one outermost shell (solids side
+/// by side) is a topology problem.
 SurfaceReport analyzeSurface(const SurfaceMesh& surface, bool checkSelfIntersections = true);
 
 /// Throws with the first problem of `report`, prefixed by "file: ":
