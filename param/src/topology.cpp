@@ -4,6 +4,8 @@
 #include "tet2spline/param/topology.h"
 
 #include <Eigen/Geometry>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
@@ -334,11 +336,20 @@ SolidReport analyzeSolid(const TetMesh& mesh) {
   r.unusedVertices = static_cast<int>(std::count(used.begin(), used.end(), 0));
   r.duplicateVertices = countDuplicatePositions(mesh.V, used);
 
-  for (int t = 0; t < nT; ++t) {
-    const int o = tetOrientation(mesh, t);
-    if (o < 0) ++r.invertedTets;
-    if (o == 0) ++r.degenerateTets;
-  }
+  // Inverted and degenerate counts packed in one reduction (low/high 32 bits).
+  const std::uint64_t counts = tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, nT, 4096), std::uint64_t(0),
+      [&](const tbb::blocked_range<int>& range, std::uint64_t c) {
+        for (int t = range.begin(); t != range.end(); ++t) {
+          const int o = tetOrientation(mesh, t);
+          if (o < 0) c += 1;
+          if (o == 0) c += std::uint64_t(1) << 32;
+        }
+        return c;
+      },
+      [](std::uint64_t a, std::uint64_t b) { return a + b; });
+  r.invertedTets = static_cast<int>(counts & 0xffffffffu);
+  r.degenerateTets = static_cast<int>(counts >> 32);
 
   const TetFaces faces = tetFaces(mesh.T, true);
   r.components = faces.components;
