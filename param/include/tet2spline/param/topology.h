@@ -30,7 +30,7 @@ struct SolidReport {
   int tets = 0;
   int components = 0;              ///< connected components of tets (sharing a face)
   int unusedVertices = 0;
-  int duplicateVertices = 0;       ///< vertices at exactly the position of another one
+  int duplicateVertices = 0;       ///< used vertices at exactly the position of another used one
   int invertedTets = 0;            ///< exact orient3d < 0
   int degenerateTets = 0;          ///< exact orient3d == 0
   int nonManifoldFaces = 0;         ///< triangles shared by more than two tets
@@ -45,8 +45,8 @@ struct SolidReport {
   bool valid() const { return problems.empty(); }
 };
 
-/// Throws Error(Input) when T or region index out of range; everything else
-/// goes into the report. Unused vertices are counted but are not a problem
+/// Throws Error(Input) when T indexes outside V or region has neither 0 nor
+/// #T entries; everything else goes into the report. Unused vertices are counted but are not a problem
 /// (see removeUnusedVertices); duplicate positions among used vertices are.
 SolidReport analyzeSolid(const TetMesh& mesh);
 
@@ -59,8 +59,10 @@ bool reorientIfAllInverted(TetMesh& mesh);
 int removeUnusedVertices(TetMesh& mesh);
 
 /// Throws Error(Topology) (several components, non-manifold, genus > 0) or
-/// Error(Input) (inverted or degenerate tets) with the first problem of
-/// `report`, prefixed by "file: ". Does nothing for a valid report.
+/// Error(Input) (inverted or degenerate tets, coincident vertices) with the
+/// first problem of `report`, prefixed by "file: "; the kind is
+/// problemKinds[0]. Topology problems are listed first. Does nothing for a
+/// valid report.
 void requireValidSolid(const SolidReport& report, const std::string& file);
 
 /// Topology of a triangle surface that should bound a solid.
@@ -99,8 +101,10 @@ constexpr int kMaxSelfIntersections = 1000;
 SurfaceReport analyzeSurface(const SurfaceMesh& surface, bool checkSelfIntersections = true);
 
 /// Throws with the first problem of `report`, prefixed by "file: ":
-/// Error(Topology) for open, non-manifold or genus > 0; Error(Input) for
-/// self-intersecting or degenerate surfaces.
+/// Error(Topology) for open, non-manifold, several solids or genus > 0;
+/// Error(Input) for degenerate, inconsistently oriented, self-intersecting or
+/// self-touching surfaces. Problems are listed in the order a user should fix
+/// them: open/non-manifold, then geometry, then nesting, then genus.
 void requireValidSurface(const SurfaceReport& report, const std::string& file);
 
 /// The boundary triangles of a tet mesh, oriented outward, indexing mesh.V.
