@@ -113,6 +113,25 @@ TEST(Tetrahedralize, NestedSphereIsASecondRegion) {
   EXPECT_EQ(analyzeSolid(m).voids, 0);
 }
 
+TEST(Tetrahedralize, SolidWithACavityHasTwoShellsOuterFirst) {
+  const SurfaceMesh outer = t2stest::sphere(3, 2), inner = t2stest::sphere(2, 0.7, Eigen::RowVector3d(0.3, 0, 0));
+  const TetMesh filled = tetrahedralize(t2stest::merge(inner, outer));
+  // Keep region 1 only: a solid with an unfilled cavity.
+  TetMesh m = filled;
+  int n = 0;
+  for (Eigen::Index t = 0; t < filled.T.rows(); ++t)
+    if (filled.region(t) == 1) m.T.row(n++) = filled.T.row(t);
+  m.T.conservativeResize(n, 4);
+  m.region = Eigen::VectorXi::Ones(n);
+  const SolidReport r = analyzeSolid(m);
+  EXPECT_TRUE(r.valid()) << r.problems[0];
+  ASSERT_EQ(r.shells.size(), 2u);
+  EXPECT_EQ(r.voids, 1);
+  EXPECT_NEAR(r.shells[0].enclosedVolume, enclosedVolume(outer), 1e-12);
+  EXPECT_NEAR(r.shells[1].enclosedVolume, -enclosedVolume(inner), 1e-12);  // faces point into the cavity
+  EXPECT_EQ(r.shells[1].genus, 0);
+}
+
 TEST(Tetrahedralize, InnerShellListedFirstStillGetsTagTwo) {
   const SurfaceMesh outer = t2stest::sphere(3, 2), inner = t2stest::sphere(2, 0.5);
   const TetMesh m = tetrahedralize(t2stest::merge(inner, outer));
