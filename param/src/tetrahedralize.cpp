@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <new>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -175,6 +176,8 @@ TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& 
   } catch (int code) {
     throw Error(code == 1 || code == 2 ? ErrorKind::Numerical : ErrorKind::Input,
                 sourceName + ": " + tetgenFailure(code));
+  } catch (const std::bad_alloc&) {
+    throw Error(ErrorKind::Numerical, sourceName + ": " + tetgenFailure(1));
   }
   if (out.numberoftetrahedra <= 0 || out.numberofcorners != 4 || out.numberoftetrahedronattributes < 1)
     throw Error(ErrorKind::Numerical, sourceName + ": TetGen produced no tetrahedra");
