@@ -13,12 +13,20 @@
 // a positive volume, each void shell a negative one.
 #include "tet2spline/io/cad_io.h"
 
+#include <signal.h>
+
 #include <algorithm>
 #include <array>
+#include <cfenv>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
+#include <iterator>
 #include <cstdint>
 #include <fstream>
 #include <numeric>
+#include <set>
+#include <type_traits>
 #include <unordered_map>
 #include <vector>
 
@@ -32,15 +40,24 @@
 #include <BRepLib.hxx>
 #include <BRepMesh_IncrementalMesh.hxx>
 #include <BRepTools.hxx>
+#include <BRep_Builder.hxx>
 #include <BRep_Tool.hxx>
 #include <Bnd_Box.hxx>
+#include <Geom_Curve.hxx>
 #include <IFSelect_ReturnStatus.hxx>
 #include <IGESControl_Reader.hxx>
+#include <Interface_Check.hxx>
+#include <Interface_CheckIterator.hxx>
+#include <Interface_InterfaceModel.hxx>
 #include <Message.hxx>
 #include <Message_Messenger.hxx>
+#include <OSD.hxx>
 #include <Poly_PolygonOnTriangulation.hxx>
 #include <Poly_Triangulation.hxx>
 #include <STEPControl_Reader.hxx>
+#include <StepGeom_CartesianPoint.hxx>
+#include <StepShape_FaceSurface.hxx>
+#include <Transfer_TransientProcess.hxx>
 #include <ShapeFix_Shape.hxx>
 #include <ShapeFix_Solid.hxx>
 #include <Standard_Failure.hxx>
@@ -52,7 +69,10 @@
 #include <TopoDS_Face.hxx>
 #include <TopoDS_Shell.hxx>
 #include <TopoDS_Solid.hxx>
+#include <TopoDS_TShape.hxx>
 #include <TopoDS_Vertex.hxx>
+#include <XSControl_TransferReader.hxx>
+#include <XSControl_WorkSession.hxx>
 
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/error.h"
@@ -84,6 +104,43 @@ class SilenceOcctMessages {
   Message_SequenceOfPrinters saved_;
 };
 
+// OCCT still dereferences null pointers on some malformed input. While a
+// file is read, OCCT's own handlers (OSD::SetSignal) turn SIGSEGV, SIGBUS,
+// SIGILL and SIGFPE into Standard_Failure exceptions, which the translators
+// catch per entity and readCadSurface catches overall. Handlers that the
+// application installed itself are kept (SetUnhandled), and every previous
+// handler and the floating-point environment are restored afterwards.
+class OcctSignalGuard {
+ public:
+  OcctSignalGuard() {
+    fegetenv(&fenv_);
+    for (int s = 1; s < kSignals; ++s) saved_[s].valid = sigaction(s, nullptr, &saved_[s].action) == 0;
+    OSD::SetSignal(OSD_SignalMode_SetUnhandled, /*theFloatingSignal=*/false);
+  }
+  ~OcctSignalGuard() {
+    for (int s = 1; s < kSignals; ++s)
+      if (saved_[s].valid) sigaction(s, &saved_[s].action, nullptr);
+    fesetenv(&fenv_);
+  }
+  OcctSignalGuard(const OcctSignalGuard&) = delete;
+  OcctSignalGuard& operator=(const OcctSignalGuard&) = delete;
+
+ private:
+  static constexpr int kSignals = 32;
+  struct Saved {
+    struct sigaction action {};
+    bool valid = false;
+  };
+  Saved saved_[kSignals];
+  fenv_t fenv_{};
+};
+
+std::string trimmed(std::string s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  const auto e = s.find_last_not_of(" \t\r\n");
+  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+}
+
 const char* statusName(IFSelect_ReturnStatus s) {
   switch (s) {
     case IFSelect_RetVoid: return "nothing to read";
@@ -101,16 +158,145 @@ void requireReadableFile(const std::string& path) {
   if (in.tellg() <= 0) fail(path, "empty file");
 }
 
+// OCCT's translators dereference null handles when an entity has the wrong
+// type or too few parameters, so a file whose entities fail the load checks
+// is refused before any transfer.
+template <class Reader>
+void requireLoadChecksPass(Reader& reader, const std::string& path, const char* format) {
+  const Interface_CheckIterator checks = reader.WS()->ModelCheckList(/*complete=*/false);
+  int failed = 0;
+  std::string first;
+  for (checks.Start(); checks.More(); checks.Next()) {
+    const Handle(Interface_Check)& check = checks.Value();
+    if (!check->HasFailed()) continue;
+    if (failed++ == 0) {
+      Handle(TCollection_HAsciiString) label;
+      if (!check->Entity().IsNull() && !reader.Model().IsNull()) label = reader.Model()->StringLabel(check->Entity());
+      first = (label.IsNull() ? std::string() : std::string(label->ToCString()) + ": ") +
+              (check->NbFails() > 0 ? check->CFail(1) : "invalid entity");
+    }
+  }
+  if (failed > 0)
+    fail(path, std::string("malformed ") + format + " file: " + std::to_string(failed) +
+                   (failed == 1 ? " entity fails" : " entities fail") + " to load (first: " + trimmed(first) + ")");
+}
+
+// Any real in a STEP file beyond 1e15 in magnitude, or one that overflows
+// (1.E+400), is refused with its line: no part needs it, and OCCT's geometry
+// code loops forever or crashes on such values. Quoted strings and comments
+// are skipped; only tokens with a '.' or an exponent are reals.
+void requireSaneStepNumbers(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open file");
+  long line = 1;
+  bool inString = false, inComment = false;
+  char prev = '\n';
+  std::string token;
+  auto check = [&]() {
+    if (token.find_first_of("0123456789") == std::string::npos || token.find_first_of(".Ee") == std::string::npos) return;
+    const double v = std::strtod(token.c_str(), nullptr);
+    if (!std::isfinite(v) || std::abs(v) > 1e15)
+      throwInputError(path, line, "real number " + token.substr(0, 40) + " is out of range (|x| > 1e15)");
+  };
+  std::istreambuf_iterator<char> it(in), end;
+  for (; it != end; ++it) {
+    const char c = *it;
+    if (!token.empty()) {
+      if (std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == 'E' || c == 'e' || c == '+' || c == '-') {
+        if (token.size() < 400) token += c;
+        prev = c;
+        continue;
+      }
+      check();
+      token.clear();
+    }
+    if (c == '\n') ++line;
+    if (inComment) {
+      if (prev == '*' && c == '/') inComment = false;
+    } else if (inString) {
+      if (c == '\'') inString = false;  // '' (an escaped quote) closes and reopens
+    } else if (c == '\'') {
+      inString = true;
+    } else if (prev == '/' && c == '*') {
+      inComment = true;
+    } else if ((std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.') &&
+               (prev == '(' || prev == ',' || prev == '=' || std::isspace(static_cast<unsigned char>(prev)))) {
+      token = c;
+    }
+    prev = c;
+  }
+  if (!token.empty()) check();
+}
+
+// Coordinates far beyond any part (1e10 in the file's unit) send OCCT's
+// projections into endless loops; refuse them before the transfer.
+void requireSaneStepPoints(const STEPControl_Reader& reader, const std::string& path) {
+  const Handle(Interface_InterfaceModel) model = reader.Model();
+  if (model.IsNull()) return;
+  for (int i = 1; i <= model->NbEntities(); ++i) {
+    const Handle(StepGeom_CartesianPoint) point = Handle(StepGeom_CartesianPoint)::DownCast(model->Value(i));
+    if (point.IsNull()) continue;  // (Coordinates() would build an array and throw for 2D points)
+    for (int k = 1; k <= point->NbCoordinates(); ++k) {
+      const double v = point->CoordinatesValue(k);
+      if (!std::isfinite(v) || std::abs(v) > 1e10)
+        fail(path, std::string("malformed STEP file: ") + model->StringLabel(point)->ToCString() +
+                       " has a non-finite or absurdly large coordinate");
+    }
+  }
+}
+
+// A translator that cannot build an entity skips it and carries on: a face
+// (or a whole void) would silently go missing. Any transfer failure, or
+// fewer translated faces than the STEP file's face entities, is refused.
+template <class Reader>
+void requireCompleteTransfer(Reader& reader, const TopoDS_Shape& shape, const std::string& path, const char* format) {
+  const Handle(XSControl_TransferReader) transfer = reader.WS()->TransferReader();
+  if (!transfer.IsNull() && !transfer->TransientProcess().IsNull()) {
+    const Interface_CheckIterator checks = transfer->TransientProcess()->CheckList(/*erronly=*/true);
+    int failed = 0;
+    std::string first;
+    for (checks.Start(); checks.More(); checks.Next()) {
+      const Handle(Interface_Check)& check = checks.Value();
+      if (!check->HasFailed()) continue;
+      if (failed++ == 0) {
+        Handle(TCollection_HAsciiString) label;
+        if (!check->Entity().IsNull() && !reader.Model().IsNull()) label = reader.Model()->StringLabel(check->Entity());
+        first = (label.IsNull() ? std::string() : std::string(label->ToCString()) + ": ") + check->CFail(1);
+      }
+    }
+    if (failed > 0)
+      fail(path, std::string("the ") + format + " translator failed on " + std::to_string(failed) +
+                     (failed == 1 ? " entity" : " entities") + " (first: " + trimmed(first) + ")");
+  }
+  if constexpr (std::is_same_v<Reader, STEPControl_Reader>) {
+    int stepFaces = 0;
+    const Handle(Interface_InterfaceModel) model = reader.Model();
+    for (int i = 1; i <= model->NbEntities(); ++i)
+      if (model->Value(i)->IsKind(STANDARD_TYPE(StepShape_FaceSurface))) ++stepFaces;
+    std::set<const TopoDS_TShape*> faces;  // distinct faces; instances of one part share them
+    for (TopExp_Explorer e(shape, TopAbs_FACE); e.More(); e.Next()) faces.insert(e.Current().TShape().get());
+    if (static_cast<int>(faces.size()) < stepFaces)
+      fail(path, "only " + std::to_string(faces.size()) + " of the STEP file's " + std::to_string(stepFaces) +
+                     " faces could be translated");
+  }
+}
+
 template <class Reader>
 TopoDS_Shape translate(Reader& reader, const std::string& path, const char* format) {
   const IFSelect_ReturnStatus status = reader.ReadFile(path.c_str());
   if (status != IFSelect_RetDone)
     fail(path, std::string("not a readable ") + format + " file (" + statusName(status) + ")");
+  requireLoadChecksPass(reader, path, format);
+  if constexpr (std::is_same_v<Reader, STEPControl_Reader>) {
+    requireSaneStepNumbers(path);
+    requireSaneStepPoints(reader, path);
+  }
   if (reader.NbRootsForTransfer() <= 0) fail(path, std::string(format) + " file holds no shape");
   reader.TransferRoots();
   if (reader.NbShapes() <= 0) fail(path, std::string("no shape could be translated from the ") + format + " file");
   TopoDS_Shape shape = reader.OneShape();
   if (shape.IsNull()) fail(path, std::string("no shape could be translated from the ") + format + " file");
+  requireCompleteTransfer(reader, shape, path, format);
   return shape;
 }
 
@@ -126,6 +312,37 @@ TopoDS_Shape readShape(const std::string& path) {
     return translate(reader, path, "IGES");
   }
   fail(path, "unknown CAD file extension (expected .step, .stp, .iges or .igs)");
+}
+
+// Translators accept coordinates such as 1.E+400 (inf); OCCT's algorithms
+// then crash rather than throw, so such files are refused up front.
+void requireFiniteGeometry(const TopoDS_Shape& shape, const std::string& path) {
+  constexpr double kHuge = 1e12;
+  auto bad = [&](double v) { return !std::isfinite(v) || std::abs(v) > kHuge; };
+  for (TopExp_Explorer e(shape, TopAbs_VERTEX); e.More(); e.Next()) {
+    const gp_Pnt p = BRep_Tool::Pnt(TopoDS::Vertex(e.Current()));
+    if (bad(p.X()) || bad(p.Y()) || bad(p.Z()))
+      fail(path, "a vertex has a non-finite or absurdly large coordinate");
+  }
+  for (TopExp_Explorer e(shape, TopAbs_EDGE); e.More(); e.Next()) {
+    const TopoDS_Edge edge = TopoDS::Edge(e.Current());
+    if (BRep_Tool::Degenerated(edge)) continue;
+    double first = 0, last = 0;
+    const Handle(Geom_Curve) curve = BRep_Tool::Curve(edge, first, last);
+    if (curve.IsNull()) continue;
+    if (bad(first) || bad(last)) fail(path, "an edge has a non-finite parameter range");
+    for (double t : {first, 0.5 * (first + last), last}) {
+      const gp_Pnt p = curve->Value(t);
+      if (bad(p.X()) || bad(p.Y()) || bad(p.Z())) fail(path, "an edge curve has non-finite points");
+    }
+  }
+  Bnd_Box box;
+  BRepBndLib::Add(shape, box);
+  if (box.IsVoid()) return;
+  double b[6];
+  box.Get(b[0], b[1], b[2], b[3], b[4], b[5]);
+  for (double v : b)
+    if (bad(v)) fail(path, "the shape's bounding box is not finite");
 }
 
 double diagonal(const TopoDS_Shape& shape) {
@@ -159,12 +376,23 @@ std::vector<TopoDS_Solid> solidsFromFaces(const TopoDS_Shape& shape, const std::
   sewing.Perform();
   const TopoDS_Shape sewn = sewing.SewedShape();
 
+  // Candidate shells: the sewn shells, plus one per face left outside any
+  // shell (a sphere or a torus is one face that closes on itself).
+  std::vector<TopoDS_Shell> candidates;
+  for (TopExp_Explorer e(sewn, TopAbs_SHELL); e.More(); e.Next()) candidates.push_back(TopoDS::Shell(e.Current()));
+  BRep_Builder builder;
+  for (TopExp_Explorer e(sewn, TopAbs_FACE, TopAbs_SHELL); e.More(); e.Next()) {
+    TopoDS_Shell shell;
+    builder.MakeShell(shell);
+    builder.Add(shell, e.Current());
+    candidates.push_back(shell);
+  }
+
   std::vector<TopoDS_Shell> shells;
   std::vector<TopoDS_Solid> single;  // each closed shell as a solid of its own
   int openShells = 0;
   ShapeFix_Solid fixSolid;
-  for (TopExp_Explorer e(sewn, TopAbs_SHELL); e.More(); e.Next()) {
-    const TopoDS_Shell shell = TopoDS::Shell(e.Current());
+  for (const TopoDS_Shell& shell : candidates) {
     if (!BRep_Tool::IsClosed(shell)) {
       ++openShells;
       continue;
@@ -209,9 +437,19 @@ std::vector<TopoDS_Solid> solidsFromFaces(const TopoDS_Shape& shape, const std::
   return solids;
 }
 
-// BRepCheck first; ShapeFix only when the check fails.
+// Shells that hold at least one face.
+int countShells(const TopoDS_Shape& solid) {
+  int n = 0;
+  for (TopExp_Explorer e(solid, TopAbs_SHELL); e.More(); e.Next())
+    if (TopExp_Explorer(e.Current(), TopAbs_FACE).More()) ++n;
+  return n;
+}
+
+// BRepCheck first; ShapeFix only when the check fails, and only a repair that
+// keeps every shell counts (ShapeFix may "repair" a bad void by dropping it).
 TopoDS_Solid validSolid(const TopoDS_Solid& solid, const std::string& path, int index) {
   if (BRepCheck_Analyzer(solid).IsValid()) return solid;
+  const std::string which = "solid " + std::to_string(index);
   ShapeFix_Shape fix(solid);
   fix.Perform();
   const TopoDS_Shape fixed = fix.Shape();
@@ -219,10 +457,14 @@ TopoDS_Solid validSolid(const TopoDS_Solid& solid, const std::string& path, int 
   if (e.More()) {
     TopoDS_Solid repaired = TopoDS::Solid(e.Current());
     e.Next();
-    if (!e.More() && BRepCheck_Analyzer(repaired).IsValid()) return repaired;
+    if (!e.More() && BRepCheck_Analyzer(repaired).IsValid()) {
+      if (countShells(repaired) != countShells(solid))
+        fail(path, which + " is not a valid B-rep (BRepCheck_Analyzer); ShapeFix repairs it only by dropping shells (" +
+                       std::to_string(countShells(solid)) + " -> " + std::to_string(countShells(repaired)) + ")");
+      return repaired;
+    }
   }
-  fail(path, "solid " + std::to_string(index) +
-                 " is not a valid B-rep (BRepCheck_Analyzer) and ShapeFix could not repair it");
+  fail(path, which + " is not a valid B-rep (BRepCheck_Analyzer) and ShapeFix could not repair it");
 }
 
 // ---------------------------------------------------------------------------
@@ -408,6 +650,22 @@ std::string watertightnessProblem(const SurfaceMesh& s) {
          std::to_string(repeated) + " edges used twice in the same direction or by more than two triangles)";
 }
 
+// Connected components of the triangles (sharing a vertex).
+int countComponents(const SurfaceMesh& s) {
+  std::vector<int> parent(static_cast<size_t>(s.V.rows()));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (int k = 1; k < 3; ++k) parent[find(s.F(f, k))] = find(s.F(f, 0));
+  int n = 0;
+  for (int i = 0; i < static_cast<int>(parent.size()); ++i)
+    if (find(i) == i) ++n;
+  return n;  // every vertex is used (compact), so isolated vertices do not occur
+}
+
 double signedVolume(const SurfaceMesh& s) {
   double v = 0;
   for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
@@ -446,6 +704,10 @@ SurfaceMesh tessellate(const TopoDS_Solid& solid, const CadReadOptions& options,
     if (!retryProblem.empty()) fail(path, retryProblem);
     surface = std::move(retry);
   }
+  const int components = countComponents(surface);
+  if (components != countShells(solid))
+    fail(path, "the tessellation has " + std::to_string(components) + " closed surfaces but the solid has " +
+                   std::to_string(countShells(solid)) + " shells (a shell tessellated to nothing)");
   // A solid whose faces are all inside out still gives a consistent surface;
   // turn it so that the normals point out of the material.
   if (signedVolume(surface) < 0) surface.F.col(1).swap(surface.F.col(2));
@@ -459,11 +721,33 @@ SurfaceMesh readCadSurfaceImpl(const std::string& path, const CadReadOptions& op
     throw Error(ErrorKind::Usage, path + ": --solid must be a positive index, got " + std::to_string(options.solid));
   requireReadableFile(path);
   const TopoDS_Shape shape = readShape(path);
+  requireFiniteGeometry(shape, path);
 
   std::vector<TopoDS_Solid> solids;
   for (TopExp_Explorer e(shape, TopAbs_SOLID); e.More(); e.Next()) solids.push_back(TopoDS::Solid(e.Current()));
-  if (solids.empty()) solids = solidsFromFaces(shape, path);
-
+  if (solids.empty()) {
+    solids = solidsFromFaces(shape, path);
+  } else {
+    // Faces next to the solids that reach into a solid's bounding box are
+    // most likely a void that the translator could not attach (it does so
+    // with a degenerate void); taking the solid alone would drop it. Loose
+    // faces elsewhere (construction surfaces) are ignored.
+    std::vector<Bnd_Box> boxes(solids.size());
+    for (size_t i = 0; i < solids.size(); ++i) BRepBndLib::Add(solids[i], boxes[i]);
+    int inside = 0;
+    for (TopExp_Explorer e(shape, TopAbs_FACE, TopAbs_SOLID); e.More(); e.Next()) {
+      Bnd_Box box;
+      BRepBndLib::Add(e.Current(), box);
+      for (const Bnd_Box& b : boxes)
+        if (!box.IsVoid() && !b.IsOut(box)) {
+          ++inside;
+          break;
+        }
+    }
+    if (inside > 0)
+      fail(path, "the file holds " + std::to_string(inside) + (inside == 1 ? " face" : " faces") +
+                     " outside its solids but within a solid's bounding box (a void the translator could not attach?)");
+  }
   const int count = static_cast<int>(solids.size());
   int index = options.solid;
   if (index == 0) {
@@ -483,6 +767,7 @@ SurfaceMesh readCadSurfaceImpl(const std::string& path, const CadReadOptions& op
 }  // namespace
 
 SurfaceMesh readCadSurface(const std::string& path, const CadReadOptions& options) {
+  OcctSignalGuard signals;
   try {
     return readCadSurfaceImpl(path, options);
   } catch (const Standard_Failure& e) {
