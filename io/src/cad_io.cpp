@@ -577,7 +577,7 @@ bool shareEdgeNodes(const TopoDS_Solid& solid, Soup& soup) {
 }
 
 // Fallback: every face gets its own nodes, then points closer than `tol` are
-// merged (sort along x, sweep, union-find).
+// merged (hash grid of cell size tol, union-find).
 void weldFaces(const TopoDS_Solid& solid, double tol, Soup& soup, const std::string& path) {
   for (TopExp_Explorer fe(solid, TopAbs_FACE); fe.More(); fe.Next()) {
     const TopoDS_Face face = TopoDS::Face(fe.Current());
@@ -590,20 +590,40 @@ void weldFaces(const TopoDS_Solid& solid, double tol, Soup& soup, const std::str
     addFaceTriangles(face, *tri, trsf, global, soup);
   }
   const int n = static_cast<int>(soup.points.size());
-  std::vector<int> order(n), parent(n);
-  std::iota(order.begin(), order.end(), 0);
+  std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return soup.points[a].x() < soup.points[b].x(); });
   auto find = [&](int i) {
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  for (int a = 0; a < n; ++a)
-    for (int b = a + 1; b < n && soup.points[order[b]].x() - soup.points[order[a]].x() <= tol; ++b)
-      if ((soup.points[order[a]] - soup.points[order[b]]).norm() <= tol) {
-        const int ra = find(order[a]), rb = find(order[b]);
-        if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
-      }
+  using Cell = std::array<std::int64_t, 3>;
+  struct CellHash {
+    size_t operator()(const Cell& c) const {
+      return static_cast<size_t>(c[0] * 73856093) ^ static_cast<size_t>(c[1] * 19349663) ^
+             static_cast<size_t>(c[2] * 83492791);
+    }
+  };
+  std::unordered_map<Cell, std::vector<int>, CellHash> grid;
+  grid.reserve(static_cast<size_t>(n));
+  auto cellOf = [&](const Eigen::Vector3d& p) {
+    return Cell{static_cast<std::int64_t>(std::floor(p.x() / tol)), static_cast<std::int64_t>(std::floor(p.y() / tol)),
+                static_cast<std::int64_t>(std::floor(p.z() / tol))};
+  };
+  for (int i = 0; i < n; ++i) {
+    const Cell c = cellOf(soup.points[i]);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          auto it = grid.find(Cell{c[0] + dx, c[1] + dy, c[2] + dz});
+          if (it == grid.end()) continue;
+          for (int j : it->second)
+            if ((soup.points[i] - soup.points[j]).norm() <= tol) {
+              const int ri = find(i), rj = find(j);
+              if (ri != rj) parent[std::max(ri, rj)] = std::min(ri, rj);
+            }
+        }
+    grid[c].push_back(i);
+  }
   std::vector<Eigen::Vector3i> kept;
   kept.reserve(soup.triangles.size());
   for (Eigen::Vector3i t : soup.triangles) {
