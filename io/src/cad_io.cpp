@@ -181,10 +181,26 @@ void requireLoadChecksPass(Reader& reader, const std::string& path, const char* 
                    (failed == 1 ? " entity fails" : " entities fail") + " to load (first: " + trimmed(first) + ")");
 }
 
-// Any real in a STEP file beyond 1e15 in magnitude, or one that overflows
-// (1.E+400), is refused with its line: no part needs it, and OCCT's geometry
-// code loops forever or crashes on such values. Quoted strings and comments
-// are skipped; only tokens with a '.' or an exponent are reals.
+// Any real beyond 1e15 in magnitude, or one that overflows (1.E+400), is
+// refused with its line: no part needs it, and OCCT's geometry code loops
+// forever or crashes on such values. Only tokens with a '.' or an exponent
+// are reals.
+bool isAbsurdReal(std::string token) {
+  if (token.find_first_of("0123456789") == std::string::npos || token.find_first_of(".EeDd") == std::string::npos)
+    return false;
+  std::replace(token.begin(), token.end(), 'D', 'E');  // IGES exponents
+  std::replace(token.begin(), token.end(), 'd', 'e');
+  char* end = nullptr;
+  const double v = std::strtod(token.c_str(), &end);
+  if (end == token.c_str()) return false;
+  return !std::isfinite(v) || std::abs(v) > 1e15;
+}
+
+[[noreturn]] void absurdReal(const std::string& path, long line, const std::string& token) {
+  throwInputError(path, line, "real number " + token.substr(0, 40) + " is out of range (|x| > 1e15)");
+}
+
+// STEP: a character scan that skips quoted strings and comments.
 void requireSaneStepNumbers(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, "cannot open file");
@@ -192,12 +208,6 @@ void requireSaneStepNumbers(const std::string& path) {
   bool inString = false, inComment = false;
   char prev = '\n';
   std::string token;
-  auto check = [&]() {
-    if (token.find_first_of("0123456789") == std::string::npos || token.find_first_of(".Ee") == std::string::npos) return;
-    const double v = std::strtod(token.c_str(), nullptr);
-    if (!std::isfinite(v) || std::abs(v) > 1e15)
-      throwInputError(path, line, "real number " + token.substr(0, 40) + " is out of range (|x| > 1e15)");
-  };
   std::istreambuf_iterator<char> it(in), end;
   for (; it != end; ++it) {
     const char c = *it;
@@ -207,7 +217,7 @@ void requireSaneStepNumbers(const std::string& path) {
         prev = c;
         continue;
       }
-      check();
+      if (isAbsurdReal(token)) absurdReal(path, line, token);
       token.clear();
     }
     if (c == '\n') ++line;
@@ -225,7 +235,30 @@ void requireSaneStepNumbers(const std::string& path) {
     }
     prev = c;
   }
-  if (!token.empty()) check();
+  if (!token.empty() && isAbsurdReal(token)) absurdReal(path, line, token);
+}
+
+// IGES: the parameter-data lines ('P' in column 73), columns 1-64, split at
+// ',' and ';'; Hollerith strings (nH...) are skipped.
+void requireSaneIgesNumbers(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open file");
+  std::string text;
+  long line = 0;
+  while (std::getline(in, text)) {
+    ++line;
+    if (text.size() < 73 || text[72] != 'P') continue;
+    const std::string data = text.substr(0, 64);
+    size_t begin = 0;
+    while (begin <= data.size()) {
+      size_t stop = data.find_first_of(",;", begin);
+      if (stop == std::string::npos) stop = data.size();
+      const std::string token = trimmed(data.substr(begin, stop - begin));
+      if (!token.empty() && token.find_first_of("Hh") == std::string::npos && isAbsurdReal(token))
+        absurdReal(path, line, token);
+      begin = stop + 1;
+    }
+  }
 }
 
 // Coordinates far beyond any part (1e10 in the file's unit) send OCCT's
@@ -290,6 +323,8 @@ TopoDS_Shape translate(Reader& reader, const std::string& path, const char* form
   if constexpr (std::is_same_v<Reader, STEPControl_Reader>) {
     requireSaneStepNumbers(path);
     requireSaneStepPoints(reader, path);
+  } else {
+    requireSaneIgesNumbers(path);
   }
   if (reader.NbRootsForTransfer() <= 0) fail(path, std::string(format) + " file holds no shape");
   reader.TransferRoots();

@@ -36,6 +36,7 @@
 #include <numeric>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -445,6 +446,30 @@ TEST_F(CadIoTest, OverflowingNumberIsRefusedWithItsLine) {
       EXPECT_TRUE(std::regex_search(std::string(e.what()), std::regex("overflow\\.step:[0-9]+: "))) << e.what();
     }
   }
+}
+
+TEST_F(CadIoTest, OverflowingIgesNumberIsRefusedWithItsLine) {
+  writeIges(makeBoxWithVoid(), path("good.igs"));
+  std::istringstream in(readText(path("good.igs")));
+  std::string line, out;
+  bool replaced = false;
+  while (std::getline(in, line)) {
+    // The first parameter of the first line entity (110), kept in its columns.
+    if (!replaced && line.size() >= 73 && line[72] == 'P' && line.rfind("110,", 0) == 0) {
+      const size_t a = line.find(',') + 1, b = line.find(',', a);
+      std::string data = line.substr(0, 64);
+      data.replace(a, b - a, "1.D+400");
+      const size_t pad = data.find_last_not_of(' ') + 1;
+      if (pad <= 64) {
+        line = data.substr(0, pad) + std::string(64 - pad, ' ') + line.substr(64);
+        replaced = true;
+      }
+    }
+    out += line + "\n";
+  }
+  ASSERT_TRUE(replaced);
+  std::ofstream(path("overflow.igs"), std::ios::binary) << out;
+  expectInputError(path("overflow.igs"), {}, "1.D+400");
 }
 
 TEST_F(CadIoTest, DegenerateVoidIsRefusedNotDropped) {
