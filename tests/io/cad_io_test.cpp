@@ -528,6 +528,15 @@ TEST(CadModels, BracketIsWatertightGenusZero) {
   EXPECT_LT(s.F.rows(), 20000) << "the default model stays small";
 }
 
+TEST(CadModels, ReadingTwiceGivesIdenticalSurfaces) {
+  const std::string file = t2stest::sourceDir() + "/models/bracket.step";
+  const SurfaceMesh a = readCadSurface(file), b = readCadSurface(file);
+  ASSERT_EQ(a.V.rows(), b.V.rows());
+  ASSERT_EQ(a.F.rows(), b.F.rows());
+  EXPECT_TRUE(a.V == b.V) << "parallel meshing must not change the result";
+  EXPECT_TRUE(a.F == b.F);
+}
+
 TEST(CadModels, BlockWithVoidHasTwoShells) {
   const std::string file = t2stest::sourceDir() + "/models/block_with_void.step";
   const SurfaceMesh s = readCadSurface(file);
