@@ -5,6 +5,8 @@
 #include <vector>
 
 #include "format_readers.h"
+#include "io_util.h"
+#include "tet2spline/io/atomic_file.h"
 #include "tet2spline/param/error.h"
 
 namespace tet2spline::detail {
@@ -81,6 +83,31 @@ SurfaceMesh readOff(const std::string& path) {
   s.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
   for (size_t i = 0; i < tris.size(); ++i) s.F.row(static_cast<Eigen::Index>(i)) = tris[i].transpose();
   return s;
+}
+
+void writeOff(const SurfaceMesh& s, const std::string& path) {
+  std::string buf = "OFF\n";
+  appendInt(buf, s.V.rows());
+  buf += ' ';
+  appendInt(buf, s.F.rows());
+  buf += " 0\n";
+  for (Eigen::Index i = 0; i < s.V.rows(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      appendReal(buf, s.V(i, k));
+      buf += k == 2 ? '\n' : ' ';
+    }
+  }
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+    buf += '3';
+    for (int k = 0; k < 3; ++k) {
+      buf += ' ';
+      appendInt(buf, s.F(f, k));
+    }
+    buf += '\n';
+  }
+  AtomicFile file(path);
+  file.stream().write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  file.commit();
 }
 
 }  // namespace tet2spline::detail
