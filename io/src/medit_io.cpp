@@ -44,8 +44,9 @@ TetMesh readMedit(const std::string& path) {
       if (!haveDim) c.fail("Vertices before Dimension");
       if (haveVertices) c.fail("second Vertices section");
       nv = c.integerIn("vertex count", 0, 2000000000);
-      // Every vertex takes at least 8 characters ("0 0 0 0\n").
-      if (static_cast<unsigned long long>(nv) > c.remaining() / 8)
+      // Every vertex takes 4 tokens, hence at least 8 characters: a cheap
+      // guard against absurd counts before allocating.
+      if (static_cast<unsigned long long>(nv) > c.remaining() / 2)
         c.fail("truncated: Vertices count " + std::to_string(nv) + " exceeds what the rest of the file can hold");
       m.V.resize(nv, 3);
       for (long long i = 0; i < nv; ++i) {
@@ -59,7 +60,7 @@ TetMesh readMedit(const std::string& path) {
       if (!haveVertices) c.fail("Tetrahedra before Vertices");
       if (haveTets) c.fail("second Tetrahedra section");
       const long long nt = c.integerIn("tetrahedron count", 0, 2000000000);
-      if (static_cast<unsigned long long>(nt) > c.remaining() / 10)
+      if (static_cast<unsigned long long>(nt) > c.remaining() / 2)
         c.fail("truncated: Tetrahedra count " + std::to_string(nt) + " exceeds what the rest of the file can hold");
       m.T.resize(nt, 4);
       m.region.resize(nt);

@@ -2,6 +2,7 @@
 // its size is exactly 84 + 50·n for the n of its header, ASCII when it starts
 // with "solid" otherwise. Identical vertices are merged exactly (bitwise equal
 // coordinates, with -0 == +0).
+#include <Eigen/Geometry>
 #include <array>
 #include <cmath>
 #include <map>

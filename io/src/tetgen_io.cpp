@@ -30,8 +30,8 @@ TetMesh readTetGen(const std::string& path) {
     if (dim != 3) c.fail("dimension " + std::to_string(dim) + " is not supported (expected 3)");
     const long long nattr = c.integerIn("attribute count", 0, 1000);
     const long long markers = c.integerIn("boundary marker flag", 0, 1);
-    // Every node takes at least 8 characters ("0 0 0 0\n").
-    if (static_cast<unsigned long long>(n) > c.remaining() / 8)
+    // Every node takes at least 4 tokens, hence at least 8 characters.
+    if (static_cast<unsigned long long>(n) > c.remaining() / 2)
       c.fail("truncated: node count " + std::to_string(n) + " exceeds what the rest of the file can hold");
     m.V.resize(n, 3);
     for (long long i = 0; i < n; ++i) {
@@ -47,7 +47,10 @@ TetMesh readTetGen(const std::string& path) {
       for (long long a = 0; a < nattr; ++a) c.real("node attribute");
       if (markers) c.integer("boundary marker");
     }
-    if (!c.atEnd()) c.fail("more data after the " + std::to_string(n) + " nodes the header declares");
+    if (!c.atEnd()) {
+      c.token("data");
+      c.fail("more data after the " + std::to_string(n) + " nodes the header declares");
+    }
   }
   {
     Cursor c(elePath, readWholeFile(elePath), '#');
@@ -58,7 +61,7 @@ TetMesh readTetGen(const std::string& path) {
       c.fail(std::to_string(npt) + " nodes per tetrahedron" + (npt == 10 ? " (second order)" : "") +
              " is not supported (expected 4)");
     const long long nattr = c.integerIn("attribute count", 0, 1000);
-    if (static_cast<unsigned long long>(n) > c.remaining() / 10)
+    if (static_cast<unsigned long long>(n) > c.remaining() / 2)
       c.fail("truncated: tetrahedron count " + std::to_string(n) + " exceeds what the rest of the file can hold");
     const long long nv = m.V.rows();
     m.T.resize(n, 4);
@@ -78,7 +81,10 @@ TetMesh readTetGen(const std::string& path) {
         }
       }
     }
-    if (!c.atEnd()) c.fail("more data after the " + std::to_string(n) + " tetrahedra the header declares");
+    if (!c.atEnd()) {
+      c.token("data");
+      c.fail("more data after the " + std::to_string(n) + " tetrahedra the header declares");
+    }
     if (n == 0) throwInputError(elePath, 0, "no tetrahedra");
   }
   return m;
