@@ -817,7 +817,12 @@ class LegacyVtkReader {
       c_.needItems(n, 2, std::string("ASCII data"));
       out.reserve(n);
       for (size_t i = 0; i < n; ++i) {
-        if (c_.atEnd()) c_.fail("truncated: expected " + std::to_string(n) + " values, got " + std::to_string(i));
+        const std::string_view next = c_.peek();
+        if (next.empty() || (std::isalpha(static_cast<unsigned char>(next[0])) && !iequals(next, "nan") &&
+                             !iequals(next, "inf") && !iequals(next, "-inf"))) {
+          if (!next.empty()) c_.token("value");
+          c_.fail("truncated: expected " + std::to_string(n) + " values, got " + std::to_string(i));
+        }
         out.push_back(c_.real("value"));
       }
       return;

@@ -311,7 +311,7 @@ TEST(VtuIo, BadInputsNameFileAndCause) {
   const std::string good = makeVtu(app);
   cases.push_back({"truncated_appended", good.substr(0, good.size() - 40), 0, "truncated"});
   std::string corrupt = makeVtu(zlib);
-  const size_t at = corrupt.find('_', corrupt.find("<AppendedData")) + 1 + 8 * 4 + 2;  // inside the first zlib block
+  const size_t at = corrupt.find('_', corrupt.find("<AppendedData")) + 1 + 8 * 5 + 2;  // phi: 5 header words, then zlib
   corrupt[at] = static_cast<char>(corrupt[at] ^ 0x5a);
   cases.push_back({"corrupt_zlib", corrupt, 0, "zlib block 0 does not decompress"});
   for (const Case& c : cases) {
@@ -328,7 +328,9 @@ TEST(VtuIo, EveryTruncationIsAnErrorNotACrash) {
   zlib.format = "appended";
   zlib.compressed = true;
   const std::string full = makeVtu(zlib);
-  for (size_t cut = 0; cut < full.size(); cut += 7) {
+  // Cutting only the closing tags after the appended payload leaves all data intact.
+  const size_t payloadEnd = full.rfind("\n</AppendedData>");
+  for (size_t cut = 0; cut < payloadEnd; cut += 7) {
     const std::string path = dir + "/cut.vtu";
     writeFile(path, full.substr(0, cut));
     try {
@@ -365,7 +367,7 @@ TEST(LegacyVtkIo, AsciiWithFieldsAndVersion51Cells) {
   const std::string points = "POINTS 5 float\n0 0 0 1 0 0 0 1 0\n0 0 1 1 1 1\n";
   writeFile(dir + "/classic.vtk",
             "# vtk DataFile Version 3.0\ntitle\nASCII\nDATASET UNSTRUCTURED_GRID\n" + points +
-                "CELLS 3 13\n3 0 1 2\n4 0 1 2 3\n4 1 2 3 4\nCELL_TYPES 3\n5\n10\n10\n"
+                "CELLS 3 14\n3 0 1 2\n4 0 1 2 3\n4 1 2 3 4\nCELL_TYPES 3\n5\n10\n10\n"
                 "CELL_DATA 3\nSCALARS MaterialIds int 1\nLOOKUP_TABLE default\n7 8 9\n"
                 "FIELD FieldData 1\ntemperature 2 3 double\n1 2 3 4 5 6\n"
                 "POINT_DATA 5\nVECTORS v double\n0 0 0 1 1 1 2 2 2 3 3 3 4 4 4\n");
@@ -408,7 +410,8 @@ TEST(LegacyVtkIo, BigEndianBinary) {
   EXPECT_EQ(m.region(1), 12);
   EXPECT_EQ(m.V.row(4), Eigen::RowVector3d(1, 1, 1));
   // Every truncation is an error naming the file.
-  for (size_t cut = 120; cut < s.size(); cut += 13) {
+  // (A file cut right before CELL_DATA is complete without it.)
+  for (size_t cut = 100; cut < s.find("\nCELL_DATA"); cut += 13) {
     const std::string path = dir + "/cut.vtk";
     writeFile(path, s.substr(0, cut));
     expectInputError([&] { readTetMesh(path); }, path, 0, "");
@@ -422,13 +425,14 @@ TEST(LegacyVtkIo, BadInputsNameFileLineAndCause) {
       {"hello\n", {1, "wrong header"}},
       {"# vtk DataFile Version 3.0\nt\nTEXT\n", {3, "expected ASCII or BINARY"}},
       {"# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\n", {4, "dataset type POLYDATA is not supported"}},
-      {head + "CELLS 1 6\n4 0 1 2 3\nCELL_TYPES 1\n10\n", {8, "truncated"}},
+      {head + "CELLS 1 6\n4 0 1 2 3\nCELL_TYPES 1\n10\n", {9, "truncated: expected 6 values, got 5"}},
       {head + "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n12\n", {0, "type 12 (hexahedron)"}},
       {head + "CELLS 1 5\n4 0 1 2 9\nCELL_TYPES 1\n10\n", {0, "references point 9"}},
       {head + "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 2\n10 10\n", {0, "CELL_TYPES has 2 entries for 1 cells"}},
       {head + "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nCELL_DATA 2\n", {11, "CELL_DATA 2 disagrees"}},
       {head + "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nBOGUS 1\n", {11, "unknown keyword 'BOGUS'"}},
-      {"# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 1 float\n0 inf 0\n", {0, "NaN or infinite"}},
+      {"# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n0 0 0 1 inf 0 0 1 0 0 0 1\n"
+       "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n", {0, "point 1 has a NaN or infinite coordinate"}},
   };
   int i = 0;
   for (const auto& [text, expect] : cases) {
