@@ -67,7 +67,7 @@ bool Cursor::tryToken(std::string_view& tok) {
 std::string_view Cursor::token(const char* what) {
   std::string_view tok;
   if (!tryToken(tok)) {
-    tokenLine_ = lineNo_;
+    if (tokenLine_ == 0) tokenLine_ = lineNo_;  // else: the last line with data
     fail(std::string("truncated: expected ") + what + " but the file ends");
   }
   return tok;

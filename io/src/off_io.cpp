@@ -1,4 +1,5 @@
 // OFF surfaces (Geomview Object File Format), as the CGAL data set ships them.
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -55,9 +56,18 @@ SurfaceMesh readOff(const std::string& path) {
   for (long i = 0; i < nv; ++i) {
     if (!nextDataLine(in, line, lineNo))
       throwInputError(path, lineNo, "truncated: expected " + std::to_string(nv) + " vertices, got " + std::to_string(i));
+    // from_chars, unlike iostreams, reads "nan" and "inf", so they get their own message.
     std::istringstream ls(line);
-    double x, y, z;
-    if (!(ls >> x >> y >> z)) throwInputError(path, lineNo, "malformed vertex coordinates");
+    double xyz[3];
+    for (double& v : xyz) {
+      std::string tok;
+      if (!(ls >> tok)) throwInputError(path, lineNo, "malformed vertex coordinates (fewer than 3)");
+      const char* b = tok.c_str() + (tok[0] == '+' ? 1 : 0);
+      auto [p, ec] = std::from_chars(b, tok.c_str() + tok.size(), v);
+      if (ec != std::errc() || p != tok.c_str() + tok.size())
+        throwInputError(path, lineNo, "malformed vertex coordinate '" + tok.substr(0, 30) + "'");
+    }
+    const double x = xyz[0], y = xyz[1], z = xyz[2];
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
       throwInputError(path, lineNo, "vertex " + std::to_string(i) + " has a NaN or infinite coordinate");
     s.V.row(i) << x, y, z;

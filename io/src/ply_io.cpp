@@ -181,7 +181,10 @@ class PlyReader {
         }
       }
     }
-    if (mode_ == Mode::Ascii && !c_.atEnd()) c_.fail("more data after the elements the header declares");
+    if (mode_ == Mode::Ascii && !c_.atEnd()) {
+      c_.token("data");
+      c_.fail("more data after the elements the header declares");
+    }
     if (!haveVertices) throwInputError(c_.path(), 0, "no vertex element");
     if (!haveFaces || F.empty()) throwInputError(c_.path(), 0, "no faces");
     for (const auto& f : F)

@@ -204,7 +204,7 @@ TEST(GmshIo, BadInputsNameFileLineAndCause) {
       {"wrong_header", "$MeshFmt\n", 1, "wrong header"},
       {"version3", "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n", 2, "unsupported MSH version 3.0"},
       {"datasize", "$MeshFormat\n2.2 0 4\n$EndMeshFormat\n", 2, "data size 4"},
-      {"no_end", "$MeshFormat\n2.2 0 8\n", 3, "truncated"},
+      {"no_end", "$MeshFormat\n2.2 0 8\n", 2, "truncated"},
       {"truncated_nodes", fmt + "$Nodes\n4\n1 0 0 0\n2 1 0", 7, "truncated"},
       {"count_disagrees", fmt + "$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n", 9, "expected $EndNodes"},
       {"nan", fmt + "$Nodes\n1\n1 0 NaN 0\n$EndNodes\n", 6, "NaN or infinite"},

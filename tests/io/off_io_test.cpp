@@ -1,0 +1,51 @@
+// OFF surfaces: writer round trip and the real CGAL data in every surface format.
+#include "surface_test_util.h"
+
+using namespace tet2spline;
+using namespace t2stest;
+
+TEST(OffIo, RoundTripIsExact) {
+  const std::string path = scratchDir("off_rt") + "/o.off";
+  const SurfaceMesh s = octahedron();
+  writeSurface(s, path);
+  const SurfaceMesh r = readSurface(path);
+  EXPECT_TRUE(r.V == s.V);
+  EXPECT_TRUE(r.F == s.F);
+}
+
+TEST(OffIo, RealMeshThroughEverySurfaceFormat) {
+  const std::string off = cgalMesh("blob-closed");
+  if (!fs::exists(off)) GTEST_SKIP() << "test data missing: " << off;
+  const std::string dir = scratchDir("off_all");
+  const SurfaceMesh s = readSurface(off);
+  ASSERT_GT(s.F.rows(), 100);
+  for (const char* ext : {"off", "obj", "ply"}) {
+    SCOPED_TRACE(ext);
+    const std::string path = dir + "/blob." + ext;
+    writeSurface(s, path);
+    const SurfaceMesh r = readSurface(path);
+    EXPECT_TRUE(r.V == s.V);
+    EXPECT_TRUE(r.F == s.F);
+  }
+  // STL stores float32 and no shared vertices: same triangles after rounding.
+  writeSurface(s, dir + "/blob.stl");
+  const SurfaceMesh r = readSurface(dir + "/blob.stl");
+  EXPECT_EQ(r.V.rows(), s.V.rows()) << "identical corners are merged back into shared vertices";
+  EXPECT_NEAR(enclosedVolume(r), enclosedVolume(s), 1e-6 * enclosedVolume(s));
+}
+
+TEST(OffIo, BadInputsNameFileLineAndCause) {
+  const std::string dir = scratchDir("off_bad");
+  const std::pair<std::string, std::pair<long, std::string>> cases[] = {
+      {"PLY\n", {1, "wrong header"}},
+      {"OFF\n4 4 0\n0 0 0\n1 0 0\n", {4, "truncated"}},
+      {"OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 nan\n3 0 1 2\n", {6, "NaN or infinite"}},
+      {"OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 7\n", {7, "out of range"}},
+  };
+  int i = 0;
+  for (const auto& [text, expect] : cases) {
+    const std::string path = dir + "/c" + std::to_string(i++) + ".off";
+    writeFile(path, text);
+    expectInputError([&] { readSurface(path); }, path, expect.first, expect.second);
+  }
+}
