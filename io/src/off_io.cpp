@@ -28,6 +28,9 @@ bool nextDataLine(std::istream& in, std::string& line, long& lineNo) {
 SurfaceMesh readOff(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throwInputError(path, 0, "cannot open file");
+  in.seekg(0, std::ios::end);
+  const auto fileSize = static_cast<long long>(in.tellg());
+  in.seekg(0);
   std::string line;
   long lineNo = 0;
   if (!nextDataLine(in, line, lineNo)) throwInputError(path, 0, "empty file");
@@ -50,6 +53,12 @@ SurfaceMesh readOff(const std::string& path) {
   }
   if (!header || nv < 0 || nf < 0) throwInputError(path, lineNo, "malformed vertex/face counts");
   if (nv < 4 || nf < 4) throwInputError(path, lineNo, "too few vertices or faces for a closed surface");
+  // Guard the counts against the file size before allocating (a vertex or a
+  // face takes several characters; half the size is a safe, loose bound).
+  if (nv > fileSize / 2 || nf > fileSize / 2)
+    throwInputError(path, lineNo,
+                    "truncated or corrupt: " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+                        " faces cannot fit in " + std::to_string(fileSize) + " bytes");
 
   SurfaceMesh s;
   s.V.resize(nv, 3);
@@ -80,6 +89,8 @@ SurfaceMesh readOff(const std::string& path) {
     std::istringstream ls(line);
     long k;
     if (!(ls >> k) || k < 3) throwInputError(path, lineNo, "malformed face (needs a vertex count >= 3)");
+    if (k > static_cast<long>(line.size()))
+      throwInputError(path, lineNo, "face vertex count " + std::to_string(k) + " exceeds the indices on its line");
     std::vector<int> idx(k);
     for (long j = 0; j < k; ++j) {
       long v;
