@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <set>
 #include <vector>
 
 #include "format_readers.h"
@@ -23,6 +24,8 @@ namespace tet2spline::detail {
 namespace {
 
 constexpr int kVtkTetra = 10;
+// FieldData array of the region tags that fill voids (TetMesh::voidRegions).
+const char* const kVoidRegions = "void_regions";
 const char* const kRegionNames[] = {"region", "gmsh:physical", "CellEntityIds", "MaterialIds", "medit:ref"};
 
 /// Topological dimension of a VTK cell type (vtkCellType.h); 3 for unknown types.
@@ -481,13 +484,25 @@ class VtuReader {
     for (double o : O.values) g.offsets.push_back(static_cast<long long>(o));
     g.connectivity.assign(C.values.begin(), C.values.end());
 
+    std::set<int> voids;
+    if (const XmlElement* fd = grid->child("FieldData"))
+      for (const auto& a : fd->children) {
+        const std::string* nm = a.attr("Name");
+        if (a.name != "DataArray" || !nm || *nm != kVoidRegions) continue;
+        for (double v : decode(a, count(a, "NumberOfTuples"), 1).values) {
+          if (v != std::floor(v) || std::fabs(v) > 2147483647.0) failAt(a, std::string(kVoidRegions) + " holds a non-integer");
+          voids.insert(static_cast<int>(v));
+        }
+      }
     if (const XmlElement* pd = piece->child("PointData"))
       for (const auto& a : pd->children)
         if (a.name == "DataArray" && numeric(a)) g.pointArrays.push_back(decode(a, np, 0));
     if (const XmlElement* cd = piece->child("CellData"))
       for (const auto& a : cd->children)
         if (a.name == "DataArray" && numeric(a)) g.cellArrays.push_back(decode(a, nc, 0));
-    return assemble(g, [&](const std::string& msg, long line) { fail(msg, line); });
+    TetMesh m = assemble(g, [&](const std::string& msg, long line) { fail(msg, line); });
+    m.voidRegions = std::move(voids);
+    return m;
   }
 
  private:
@@ -910,7 +925,14 @@ void writeVtu(const TetMesh& m, const std::string& path, bool binary) {
   std::string& x = w.xml_;
   x = "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"";
   x += hostIsBigEndian() ? "BigEndian" : "LittleEndian";
-  x += "\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"" + std::to_string(nv) +
+  x += "\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n";
+  if (!m.voidRegions.empty()) {
+    x += "    <FieldData>\n      <DataArray type=\"Int32\" Name=\"" + std::string(kVoidRegions) + "\" NumberOfTuples=\"" +
+         std::to_string(m.voidRegions.size()) + "\" format=\"ascii\">\n       ";
+    for (int r : m.voidRegions) x += " " + std::to_string(r);
+    x += "\n      </DataArray>\n    </FieldData>\n";
+  }
+  x += "    <Piece NumberOfPoints=\"" + std::to_string(nv) +
        "\" NumberOfCells=\"" + std::to_string(nt) + "\">\n      <PointData>\n";
   const std::string in = "        ";
   for (const Field& f : m.pointFields) {

@@ -26,8 +26,9 @@ namespace t2stest {
 namespace fs = std::filesystem;
 
 /// A fresh, empty directory under the build tree (ctest runs in build/tests).
+/// Names are unique per test, so parallel ctest runs do not collide.
 inline std::string scratchDir(const std::string& name) {
-  const fs::path dir = fs::current_path() / "io_test_tmp" / (name + "." + std::to_string(::getpid()));
+  const fs::path dir = fs::current_path() / "io_test_tmp" / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir.string();

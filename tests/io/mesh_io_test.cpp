@@ -57,6 +57,12 @@ TEST(MeshIo, VoidRegionTagsAreKeptAsRegions) {
     writeTetMesh(m, path);
     EXPECT_TRUE(readTetMesh(path).region == m.region) << ext;
   }
+  // Which regions are voids: only .vtu has a place for it (FieldData).
+  for (bool binary : {true, false}) {
+    const std::string path = dir + "/v.vtu";
+    writeTetMesh(m, path, MeshWriteOptions{binary});
+    EXPECT_EQ(readTetMesh(path).voidRegions, m.voidRegions);
+  }
 }
 
 TEST(MeshIo, MeshWithoutRegionsIsWrittenAsRegionOne) {
