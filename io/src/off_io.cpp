@@ -101,6 +101,8 @@ SurfaceMesh readOff(const std::string& path) {
     }
     for (long j = 1; j + 1 < k; ++j) tris.emplace_back(idx[0], idx[j], idx[j + 1]);  // fan of a convex polygon
   }
+  if (nextDataLine(in, line, lineNo))
+    throwInputError(path, lineNo, "more data after the " + std::to_string(nf) + " faces the header declares");
   s.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
   for (size_t i = 0; i < tris.size(); ++i) s.F.row(static_cast<Eigen::Index>(i)) = tris[i].transpose();
   return s;

@@ -41,6 +41,10 @@ TEST(OffIo, BadInputsNameFileLineAndCause) {
       {"OFF\n4 4 0\n0 0 0\n1 0 0\n", {4, "truncated"}},
       {"OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 nan\n3 0 1 2\n", {6, "NaN or infinite"}},
       {"OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 7\n", {7, "out of range"}},
+      {"OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 2 3\n", {9, "truncated: expected 4 faces, got 3"}},
+      {"OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 3\n3 1 2 3\n", {11, "more data after the 4 faces"}},
+      {"OFF\n999999999 4 0\n0 0 0\n", {2, "truncated or corrupt"}},
+      {"# only a comment\n", {0, "empty file"}},
   };
   int i = 0;
   for (const auto& [text, expect] : cases) {
