@@ -142,6 +142,7 @@ class PlyReader {
         if (iface < 0) c_.failAtLine(e.line, "element face has no vertex_indices list");
         haveFaces = true;
       }
+      if (e.props.empty()) continue;  // nothing to read, however large the count
       std::vector<double> row(e.props.size());
       std::vector<long long> poly;
       for (unsigned long long r = 0; r < e.count; ++r) {

@@ -108,3 +108,17 @@ TEST(MeditIo, BadInputsNameFileLineAndCause) {
     expectInputError([&] { readTetMesh(path); }, path, c.line, c.cause);
   }
 }
+
+TEST(MeditIo, GmshReadsWhatWeWrite) {
+  if (!haveProgram("gmsh")) GTEST_SKIP() << "gmsh not installed (scripts/install-deps.sh)";
+  const std::string dir = scratchDir("medit_gmsh_reads");
+  TetMesh m = referenceMesh();
+  m.region(11) = 3;  // gmsh entity tags are positive
+  writeTetMesh(m, dir + "/ours.mesh");
+  ASSERT_EQ(run("gmsh -0 " + dir + "/ours.mesh -format msh41 -o " + dir + "/back.msh"), 0);
+  const TetMesh r = readTetMesh(dir + "/back.msh");  // MEDIT references become entity tags
+  EXPECT_EQ(r.numTets(), m.numTets());
+  const auto a = regionVolumes(m), b = regionVolumes(r);
+  ASSERT_EQ(b.size(), a.size());
+  for (const auto& [region, vol] : a) EXPECT_NEAR(b.at(region), vol, 1e-14) << region;
+}

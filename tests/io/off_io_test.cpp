@@ -53,3 +53,18 @@ TEST(OffIo, BadInputsNameFileLineAndCause) {
     expectInputError([&] { readSurface(path); }, path, expect.first, expect.second);
   }
 }
+
+TEST(OffIo, TetgenMeshesWhatWeWrite) {
+  if (!haveProgram("tetgen")) GTEST_SKIP() << "tetgen not installed (scripts/install-deps.sh)";
+  const std::string off = cgalMesh("blob-closed");
+  if (!fs::exists(off)) GTEST_SKIP() << "test data missing: " << off;
+  const std::string dir = scratchDir("off_tetgen");
+  const SurfaceMesh s = readSurface(off);
+  writeSurface(s, dir + "/ours.off");
+  ASSERT_EQ(run("cd " + dir + " && tetgen -pQ ours.off"), 0);
+  const TetMesh m = readTetMesh(dir + "/ours.1.ele");
+  EXPECT_TRUE(m.V.topRows(s.V.rows()) == s.V) << "tetgen read every digit we wrote";
+  double vol = 0;
+  for (Eigen::Index t = 0; t < m.numTets(); ++t) vol += std::fabs(tetVolume(m, t));
+  EXPECT_NEAR(vol, enclosedVolume(s), 1e-5 * enclosedVolume(s));
+}

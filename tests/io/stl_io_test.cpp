@@ -87,3 +87,18 @@ TEST(StlIo, BadInputsNameFileAndCause) {
     expectInputError([&] { readSurface(path); }, path, expect.first, expect.second);
   }
 }
+
+TEST(StlIo, GmshReadsOurBinaryAndWeReadGmshAscii) {
+  if (!haveProgram("gmsh")) GTEST_SKIP() << "gmsh not installed (scripts/install-deps.sh)";
+  const std::string off = cgalMesh("blob-closed");
+  if (!fs::exists(off)) GTEST_SKIP() << "test data missing: " << off;
+  const std::string dir = scratchDir("stl_gmsh");
+  const SurfaceMesh s = readSurface(off);
+  writeSurface(s, dir + "/ours.stl");
+  ASSERT_EQ(run("gmsh " + dir + "/ours.stl -0 -format stl -o " + dir + "/gmsh.stl"), 0);
+  ASSERT_EQ(readFile(dir + "/gmsh.stl").rfind("solid", 0), 0u) << "gmsh writes ASCII STL";
+  const SurfaceMesh r = readSurface(dir + "/gmsh.stl");
+  EXPECT_EQ(r.F.rows(), s.F.rows());
+  EXPECT_EQ(r.V.rows(), s.V.rows()) << "shared corners merged back";
+  EXPECT_NEAR(enclosedVolume(r), enclosedVolume(s), 1e-5 * enclosedVolume(s));  // float32 and %g rounding
+}
