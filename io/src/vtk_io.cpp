@@ -404,17 +404,24 @@ int typeSize(const std::string& t) {
   return 0;
 }
 
-double loadAsDouble(const char* p, const std::string& t, bool big) {
-  if (t == "Int8") return static_cast<signed char>(*p);
-  if (t == "UInt8") return static_cast<unsigned char>(*p);
-  if (t == "Int16") return loadValue<int16_t>(p, big);
-  if (t == "UInt16") return loadValue<uint16_t>(p, big);
-  if (t == "Int32") return loadValue<int32_t>(p, big);
-  if (t == "UInt32") return loadValue<uint32_t>(p, big);
-  if (t == "Int64") return static_cast<double>(loadValue<int64_t>(p, big));
-  if (t == "UInt64") return static_cast<double>(loadValue<uint64_t>(p, big));
-  if (t == "Float32") return loadValue<float>(p, big);
-  return loadValue<double>(p, big);
+template <class T>
+void convertAll(const char* p, size_t n, bool big, std::vector<double>& out) {
+  out.resize(n);
+  for (size_t i = 0; i < n; ++i) out[i] = static_cast<double>(loadValue<T>(p + i * sizeof(T), big));
+}
+
+/// Decodes n values of VTK XML type t (resolved once, not per value).
+void convertArray(const char* p, size_t n, const std::string& t, bool big, std::vector<double>& out) {
+  if (t == "Int8") convertAll<int8_t>(p, n, big, out);
+  else if (t == "UInt8") convertAll<uint8_t>(p, n, big, out);
+  else if (t == "Int16") convertAll<int16_t>(p, n, big, out);
+  else if (t == "UInt16") convertAll<uint16_t>(p, n, big, out);
+  else if (t == "Int32") convertAll<int32_t>(p, n, big, out);
+  else if (t == "UInt32") convertAll<uint32_t>(p, n, big, out);
+  else if (t == "Int64") convertAll<int64_t>(p, n, big, out);
+  else if (t == "UInt64") convertAll<uint64_t>(p, n, big, out);
+  else if (t == "Float32") convertAll<float>(p, n, big, out);
+  else convertAll<double>(p, n, big, out);
 }
 
 class VtuReader {
@@ -590,8 +597,7 @@ class VtuReader {
     }
     const size_t expected = n * static_cast<size_t>(ts);
     std::string bytes = binaryPayload(*src, el, label, expected);
-    a.values.resize(n);
-    for (size_t i = 0; i < n; ++i) a.values[i] = loadAsDouble(bytes.data() + i * static_cast<size_t>(ts), *type, big_);
+    convertArray(bytes.data(), n, *type, big_, a.values);
     return a;
   }
 
@@ -845,21 +851,17 @@ class LegacyVtkReader {
     c_.skipLine();
     c_.needItems(n, static_cast<size_t>(size), "binary " + type + " data");
     const char* p = c_.rawBytes(n * static_cast<size_t>(size), "binary data");
-    out.resize(n);
-    for (size_t i = 0; i < n; ++i, p += size) {
-      double v;
-      if (t == "char") v = static_cast<signed char>(*p);
-      else if (t == "unsigned_char") v = static_cast<unsigned char>(*p);
-      else if (t == "short") v = loadValue<int16_t>(p, true);
-      else if (t == "unsigned_short") v = loadValue<uint16_t>(p, true);
-      else if (t == "int" || t == "vtktypeint32") v = loadValue<int32_t>(p, true);
-      else if (t == "unsigned_int") v = loadValue<uint32_t>(p, true);
-      else if (t == "float") v = loadValue<float>(p, true);
-      else if (t == "double") v = loadValue<double>(p, true);
-      else if (t == "unsigned_long" || t == "vtktypeuint64") v = static_cast<double>(loadValue<uint64_t>(p, true));
-      else v = static_cast<double>(loadValue<int64_t>(p, true));
-      out[i] = v;
-    }
+    // Legacy binary data is big endian.
+    if (t == "char") convertAll<int8_t>(p, n, true, out);
+    else if (t == "unsigned_char") convertAll<uint8_t>(p, n, true, out);
+    else if (t == "short") convertAll<int16_t>(p, n, true, out);
+    else if (t == "unsigned_short") convertAll<uint16_t>(p, n, true, out);
+    else if (t == "int" || t == "vtktypeint32") convertAll<int32_t>(p, n, true, out);
+    else if (t == "unsigned_int") convertAll<uint32_t>(p, n, true, out);
+    else if (t == "float") convertAll<float>(p, n, true, out);
+    else if (t == "double") convertAll<double>(p, n, true, out);
+    else if (t == "unsigned_long" || t == "vtktypeuint64") convertAll<uint64_t>(p, n, true, out);
+    else convertAll<int64_t>(p, n, true, out);
   }
 
   Cursor c_;
