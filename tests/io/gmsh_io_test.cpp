@@ -214,6 +214,11 @@ TEST(GmshIo, BadInputsNameFileLineAndCause) {
       {"no_tets", fmt + nodes + "$Elements\n1\n1 2 2 1 1 1 2 3\n$EndElements\n", 0, "no tetrahedra"},
       {"no_elements", fmt + nodes, 0, "no $Elements"},
       {"unterminated_section", fmt + "$Comments\nhello\n", 4, "has no $EndComments"},
+      {"blocks41", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 3 1 3\n3 1 0 2\n1\n2\n0 0 0\n1 0 0\n$EndNodes\n", 10,
+       "$Nodes declares 3 nodes but its blocks hold 2"},
+      {"blocks41_overflow", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 1 1 3\n3 1 0 2\n1\n2\n0 0 0\n1 0 0\n$EndNodes\n", 6,
+       "node blocks hold more than the 1 nodes"},
+      {"inf41", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 1 1 1\n3 1 0 1\n1\n0 -inf 0\n$EndNodes\n", 8, "NaN or infinite"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
