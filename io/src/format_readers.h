@@ -2,7 +2,6 @@
 // Per-format readers and writers behind mesh_io.h (internal to the io module).
 #include <string>
 
-#include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/tet_mesh.h"
 
 namespace tet2spline::detail {

@@ -99,15 +99,6 @@ std::string_view Cursor::restOfLine() {
 
 void Cursor::skipLine() { restOfLine(); }
 
-void Cursor::skipToLineStart() {
-  size_t p = pos_;
-  while (p < data_.size() && (data_[p] == ' ' || data_[p] == '\t' || data_[p] == '\r')) ++p;
-  if (p < data_.size() && data_[p] == '\n') {
-    pos_ = p + 1;
-    ++lineNo_;
-  }
-}
-
 double Cursor::real(const char* what) {
   const std::string_view tok = token(what);
   double v = 0;
@@ -206,7 +197,5 @@ void appendInt(std::string& out, long long v) {
   (void)ec;
   out.append(buf, ptr);
 }
-
-void throwWriteError(const std::string& path, const std::string& cause) { throwInputError(path, 0, cause); }
 
 }  // namespace tet2spline::detail

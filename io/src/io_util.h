@@ -64,8 +64,6 @@ class Cursor {
   std::string_view restOfLine();
   /// Moves past the next '\n' (start of binary data that follows a text line).
   void skipLine();
-  /// Moves past the end of the current line if only whitespace remains on it.
-  void skipToLineStart();
 
   double real(const char* what);
   /// A finite real (NaN/Inf is an error naming `what`).
@@ -85,8 +83,6 @@ class Cursor {
     return loadValue<T>(p, bigEndian);
   }
   void seek(size_t pos) { pos_ = pos; }
-  /// Marks that binary data was read: later messages give byte offsets.
-  void setBinary() { binary_ = true; }
 
   /// Throws Error(Input) "path:line: msg" (or "path: msg (at byte N)" in binary data).
   [[noreturn]] void fail(const std::string& msg) const;
@@ -123,8 +119,5 @@ template <class T>
 void appendLittleEndian(std::string& out, T v) {
   appendRaw<T>(out, hostIsBigEndian() ? byteSwapped(v) : v);
 }
-
-/// "path: cause" for a value that a writer cannot represent.
-[[noreturn]] void throwWriteError(const std::string& path, const std::string& cause);
 
 }  // namespace tet2spline::detail
