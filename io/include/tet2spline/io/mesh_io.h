@@ -51,7 +51,9 @@ struct MeshWriteOptions {
 
 /// Writes .mesh, .msh (4.1) or .vtu, with the region tags and, for .vtu, every
 /// point and cell field. .msh has one volume entity per region whose physical
-/// tag is the region; .vtu is appended raw binary (UInt64 headers) or ASCII.
+/// tag is the region (gmsh itself wants positive physical tags: it reads a
+/// region -2 back as 2; our reader keeps any sign); .vtu is appended raw
+/// binary (UInt64 headers) or ASCII.
 /// Throws Error(Input) when the path cannot be written, and before creating
 /// any file when the mesh is inconsistent (region/field sizes, T outside V).
 void writeTetMesh(const TetMesh& mesh, const std::string& path, const MeshWriteOptions& options = {});
