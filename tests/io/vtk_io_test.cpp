@@ -4,6 +4,7 @@
 #include <zlib.h>
 
 #include <cstring>
+#include <random>
 
 #include "io_test_util.h"
 
@@ -440,5 +441,41 @@ TEST(LegacyVtkIo, BadInputsNameFileLineAndCause) {
     const std::string path = dir + "/c" + std::to_string(i++) + ".vtk";
     writeFile(path, text);
     expectInputError([&] { readTetMesh(path); }, path, expect.first, expect.second);
+  }
+}
+
+// Random corruption of every encoding: a mesh or Error(Input), never a crash.
+TEST(VtuIo, CorruptedEncodingsNeverCrash) {
+  const std::string dir = scratchDir("vtu_fuzz");
+  std::vector<Variant> variants;
+  for (const char* format : {"ascii", "binary", "appended"})
+    for (bool compressed : {false, true})
+      for (bool base64enc : {false, true}) {
+        Variant v;
+        v.format = format;
+        v.compressed = compressed && std::string(format) != "ascii";
+        v.encoding = base64enc ? "base64" : "raw";
+        v.header64 = !base64enc;
+        variants.push_back(v);
+      }
+  std::mt19937 rng(7);
+  const std::string path = dir + "/f.vtu";
+  for (const Variant& v : variants) {
+    const std::string good = makeVtu(v);
+    for (int trial = 0; trial < 100; ++trial) {
+      std::string b = good;
+      for (int f = 0, n = 1 + static_cast<int>(rng() % 3); f < n; ++f) {
+        const size_t at = rng() % b.size();
+        b[at] = rng() % 2 ? static_cast<char>(rng()) : static_cast<char>(b[at] ^ (1 << (rng() % 8)));
+      }
+      writeFile(path, b);
+      try {
+        readTetMesh(path);
+      } catch (const Error& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::Input);
+      } catch (const std::exception& e) {
+        ADD_FAILURE() << v.format << " trial " << trial << ": " << e.what();
+      }
+    }
   }
 }
