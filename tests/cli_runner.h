@@ -1,0 +1,64 @@
+#pragma once
+/// Runs the tet2spline program as a user would and captures what it says.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "test_data.h"
+
+namespace t2stest {
+
+struct RunResult {
+  int status = -1;
+  std::string out;
+  std::string err;
+  /// stderr without its trailing newline, and how many lines it has.
+  int errLines() const {
+    int n = 0;
+    for (char c : err) n += c == '\n';
+    return n;
+  }
+};
+
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// A fresh, empty folder under the build tree for one test.
+inline std::filesystem::path scratchDir(const std::string& name) {
+  auto dir = std::filesystem::path(dataDir()).parent_path() / "test-scratch" / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// Runs `tet2spline <args>` (args are passed to the shell as written).
+inline RunResult runCli(const std::string& args, const std::filesystem::path& dir) {
+  const auto outFile = dir / "cli.stdout", errFile = dir / "cli.stderr";
+  const std::string cmd = "'" + cliPath() + "' " + args + " >'" + outFile.string() + "' 2>'" + errFile.string() + "' </dev/null";
+  const int raw = std::system(cmd.c_str());
+  RunResult r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+  r.out = slurp(outFile);
+  r.err = slurp(errFile);
+  std::filesystem::remove(outFile);
+  std::filesystem::remove(errFile);
+  return r;
+}
+
+/// Files in `dir` (names only), to prove that a failure left nothing behind.
+inline std::vector<std::string> listDir(const std::filesystem::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  return names;
+}
+
+}  // namespace t2stest
