@@ -10,6 +10,8 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Sparse>
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -281,6 +283,30 @@ struct LinearOutcome {
   double assembly = 0, solve = 0;
 };
 
+/// The element's normal equations: H_e = Σ_i w̃_i N_i N_iᵀ / W + λ S_e and
+/// b_e = Σ_i w̃_i N_i X_iᵀ / W (nloc × 3), so that (1) = Σ_e Σ_c (p_cᵀ H_e p_c − 2 b_cᵀ p_c) + const.
+void elementNormalEquations(const Problem& pb, long el, Eigen::MatrixXd& H, Eigen::MatrixX3d& b) {
+  const Layout& L = pb.L;
+  H = pb.lambda * elementSmoothing(L, pb.S1, L.elementIndex(el));
+  b = Eigen::MatrixX3d::Zero(L.nloc, 3);
+  const long n0 = pb.first[el], m = pb.first[el + 1] - n0;
+  if (m == 0) return;
+  Eigen::MatrixXd B(m, L.nloc);
+  Eigen::MatrixX3d Xe(m, 3);
+  Eigen::VectorXd w(m);
+  std::vector<double> N(static_cast<size_t>(L.nloc));
+  for (long k = 0; k < m; ++k) {
+    const long i = pb.order[n0 + k];
+    pointBasis(pb, i, N.data());
+    B.row(k) = Eigen::Map<const Eigen::RowVectorXd>(N.data(), L.nloc);
+    Xe.row(k) = pb.X->row(i);
+    w[k] = pb.wt[i];
+  }
+  const Eigen::MatrixXd Bw = w.asDiagonal() * B;
+  H.noalias() += Bw.transpose() * B;
+  b.noalias() = Bw.transpose() * Xe;
+}
+
 LinearOutcome solveCholmod(const Problem& pb, int threads) {
   LinearOutcome out;
   const auto t0 = Clock::now();
@@ -297,31 +323,13 @@ LinearOutcome solveCholmod(const Problem& pb, int threads) {
     band[t].assign(static_cast<size_t>(nc * nb), 0.0);
     rhs[t] = Eigen::MatrixX3d::Zero(nc, 3);
     std::vector<long> idx;
-    Eigen::MatrixXd B, Bw, H;
-    Eigen::MatrixX3d Xe;
+    Eigen::MatrixXd H;
+    Eigen::MatrixX3d be;
     std::vector<int> off(static_cast<size_t>(L.nloc));
     for (long el = eb; el < ee; ++el) {
       L.localControls(el, idx);
-      const auto ei = L.elementIndex(el);
-      const long n0 = pb.first[el], n1 = pb.first[el + 1], m = n1 - n0;
-      H = pb.lambda * elementSmoothing(L, pb.S1, ei);
-      if (m > 0) {
-        B.resize(m, L.nloc);
-        Xe.resize(m, 3);
-        Eigen::VectorXd w(m);
-        std::vector<double> N(static_cast<size_t>(L.nloc));
-        for (long k = 0; k < m; ++k) {
-          const long i = pb.order[n0 + k];
-          pointBasis(pb, i, N.data());
-          B.row(k) = Eigen::Map<const Eigen::RowVectorXd>(N.data(), L.nloc);
-          Xe.row(k) = pb.X->row(i);
-          w[k] = pb.wt[i];
-        }
-        Bw = w.asDiagonal() * B;
-        H.noalias() += Bw.transpose() * B;
-        const Eigen::MatrixX3d be = Bw.transpose() * Xe;
-        for (int l = 0; l < L.nloc; ++l) rhs[t].row(idx[l]) += be.row(l);
-      }
+      elementNormalEquations(pb, el, H, be);
+      for (int l = 0; l < L.nloc; ++l) rhs[t].row(idx[l]) += be.row(l);
       // Local (a,b,c) -> offset index base; offset(l2 − l1) = base(l2) − base(l1) + centre.
       const int pu = p + 1, pv = q + 1;
       for (int l = 0; l < L.nloc; ++l) {
@@ -376,6 +384,7 @@ LinearOutcome solveCholmod(const Problem& pb, int threads) {
   out.assembly = since(t0);
   const auto t1 = Clock::now();
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
+  llt.cholmod().print = 0;  // library code prints nothing; failures become a Status
   llt.compute(A);
   if (llt.info() != Eigen::Success) {
     out.status = Status::failure(
@@ -407,28 +416,68 @@ ceres::Solver::Options solverOptions(int threads, int maxIterations) {
   return o;
 }
 
-/// Adds the data and smoothing residuals of element el to a Ceres problem.
-void addQuadraticTerms(const Problem& pb, long el, const std::vector<long>& idx, double* Pflat,
-                       ceres::Problem& problem) {
+/// Scalar parameter blocks of element el: coordinate c of local control l at [3l + c].
+std::vector<double*> elementBlocks(const std::vector<long>& idx, double* Pflat) {
+  std::vector<double*> blocks(3 * idx.size());
+  for (size_t l = 0; l < idx.size(); ++l)
+    for (int c = 0; c < 3; ++c) blocks[3 * l + static_cast<size_t>(c)] = Pflat + 3 * idx[l] + c;
+  return blocks;
+}
+std::vector<double*> coordinateBlocks(const std::vector<long>& idx, double* Pflat, int c) {
+  std::vector<double*> blocks(idx.size());
+  for (size_t l = 0; l < idx.size(); ++l) blocks[l] = Pflat + 3 * idx[l] + c;
+  return blocks;
+}
+
+/// (1) for element el in its literal form: one residual sqrt(w̃_i/W)(x_c(U_i) − X_ic)
+/// per point and coordinate, plus the thin-plate term as R p_c with RᵀR = λ S_e.
+void addLiteralTerms(const Problem& pb, long el, const std::vector<long>& idx, double* Pflat,
+                     ceres::Problem& problem) {
   const Layout& L = pb.L;
-  std::vector<double*> blocks(static_cast<size_t>(L.nloc));
-  for (int l = 0; l < L.nloc; ++l) blocks[l] = Pflat + 3 * idx[l];
   for (long k = pb.first[el]; k < pb.first[el + 1]; ++k) {
     const long i = pb.order[k];
     if (pb.wt[i] <= 0) continue;
     Eigen::VectorXd N(L.nloc);
     pointBasis(pb, i, N.data());
-    problem.AddResidualBlock(new detail::PointDataCost(std::move(N), pb.X->row(i).transpose(), std::sqrt(pb.wt[i])),
-                             nullptr, blocks);
+    for (int c = 0; c < 3; ++c)
+      problem.AddResidualBlock(new detail::PointDataCost(N, (*pb.X)(i, c), std::sqrt(pb.wt[i])), nullptr,
+                               coordinateBlocks(idx, Pflat, c));
   }
   if (pb.lambda > 0) {
-    Eigen::MatrixXd R = compressSmoothing(elementSmoothing(L, pb.S1, L.elementIndex(el)), pb.lambda);
-    if (R.rows() > 0) {
-      const Eigen::Index m = R.rows();
-      problem.AddResidualBlock(new detail::ElementQuadraticCost(std::move(R), Eigen::MatrixX3d::Zero(m, 3)), nullptr,
-                               blocks);
-    }
+    const Eigen::MatrixXd R = compressSmoothing(elementSmoothing(L, pb.S1, L.elementIndex(el)), pb.lambda);
+    if (R.rows() > 0)
+      for (int c = 0; c < 3; ++c)
+        problem.AddResidualBlock(new detail::ElementQuadraticCost(R, Eigen::VectorXd::Zero(R.rows())), nullptr,
+                                 coordinateBlocks(idx, Pflat, c));
   }
+}
+
+/// (1) for element el compressed: |R p_c − d_c|² with RᵀR = H_e, Rᵀd_c = b_c
+/// (eigen-decomposition of H_e): the same objective up to a constant, with
+/// at most #local residuals per coordinate however many points the element holds.
+void addCompressedTerms(const Problem& pb, long el, const std::vector<long>& idx, double* Pflat,
+                        ceres::Problem& problem) {
+  Eigen::MatrixXd H;
+  Eigen::MatrixX3d b;
+  elementNormalEquations(pb, el, H, b);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(H);
+  const Eigen::VectorXd ev = es.eigenvalues();
+  const double tol = 1e-13 * std::max(1e-300, ev.cwiseAbs().maxCoeff());
+  std::vector<int> keep;
+  for (int i = 0; i < ev.size(); ++i)
+    if (ev[i] > tol) keep.push_back(i);
+  if (keep.empty()) return;
+  const Eigen::Index m = static_cast<Eigen::Index>(keep.size());
+  Eigen::MatrixXd R(m, H.cols());
+  Eigen::MatrixX3d D(m, 3);
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const Eigen::VectorXd q = es.eigenvectors().col(keep[static_cast<size_t>(r)]);
+    const double sq = std::sqrt(ev[keep[static_cast<size_t>(r)]]);
+    R.row(r) = sq * q.transpose();
+    D.row(r) = (q.transpose() * b) / sq;
+  }
+  for (int c = 0; c < 3; ++c)
+    problem.AddResidualBlock(new detail::ElementQuadraticCost(R, D.col(c)), nullptr, coordinateBlocks(idx, Pflat, c));
 }
 
 LinearOutcome solveCeresLinear(const Problem& pb, int threads) {
@@ -441,7 +490,7 @@ LinearOutcome solveCeresLinear(const Problem& pb, int threads) {
   std::vector<long> idx;
   for (long el = 0; el < L.numElements(); ++el) {
     L.localControls(el, idx);
-    addQuadraticTerms(pb, el, idx, Pflat.data(), problem);
+    addLiteralTerms(pb, el, idx, Pflat.data(), problem);
   }
   out.assembly = since(t0);
   const auto t1 = Clock::now();
@@ -449,6 +498,7 @@ LinearOutcome solveCeresLinear(const Problem& pb, int threads) {
   o.initial_trust_region_radius = 1e12;  // the problem is linear: take the Gauss-Newton step
   ceres::Solver::Summary summary;
   ceres::Solve(o, &problem, &summary);
+  if (std::getenv("T2S_DEBUG")) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
   out.solve = since(t1);
   out.iterations = static_cast<int>(summary.iterations.size());
   if (!summary.IsSolutionUsable()) {
@@ -516,28 +566,33 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
     for (long el = 0; el < L.numElements(); ++el) {
       L.localControls(el, idx);
       if (std::none_of(idx.begin(), idx.end(), [&](long c) { return freeCtrl.count(c) > 0; })) continue;
-      addQuadraticTerms(pb, el, idx, Pflat.data(), problem);
-      std::vector<double*> blocks(static_cast<size_t>(L.nloc));
-      for (int l = 0; l < L.nloc; ++l) blocks[l] = Pflat.data() + 3 * idx[l];
+      addCompressedTerms(pb, el, idx, Pflat.data(), problem);
+      const std::vector<double*> blocks = elementBlocks(idx, Pflat.data());
       const auto ei = L.elementIndex(el);
       int g = 0;
       for (int gc = 0; gc < T[2].ng; ++gc)
         for (int gb = 0; gb < T[1].ng; ++gb)
           for (int ga = 0; ga < T[0].ng; ++ga, ++g) {
+            // Points far above τ stay inactive through one solve; the outer
+            // loop catches any that drop, so leave them out (cheaper JᵀJ).
+            const size_t at = static_cast<size_t>(el * gj.ngTot + g);
+            if (gj.detJ[at] > 4.0 * tau) continue;
             tensorGradient(L, T, ei, ga, gb, gc, G);
-            const double omega = gj.omega[static_cast<size_t>(el * gj.ngTot + g)];
-            const double scale = std::sqrt(mu * omega) * diag / Jbar;
+            const double scale = std::sqrt(mu * gj.omega[at]) * diag / Jbar;
             problem.AddResidualBlock(new detail::DetJPenaltyCost(G, tau, scale), nullptr, blocks);
           }
       used.insert(idx.begin(), idx.end());
     }
     for (long c : used)
-      if (!freeCtrl.count(c)) problem.SetParameterBlockConstant(Pflat.data() + 3 * c);
+      if (!freeCtrl.count(c))
+        for (int k = 0; k < 3; ++k) problem.SetParameterBlockConstant(Pflat.data() + 3 * c + k);
     ceres::Solver::Options o = solverOptions(opt.threads, opt.maxSolverIterations);
-    o.function_tolerance = 1e-10;
-    o.parameter_tolerance = 1e-10;
+    // The outer loop raises μ anyway: an approximate minimiser per μ is enough.
+    o.function_tolerance = 1e-7;
+    o.parameter_tolerance = 1e-9;
     ceres::Solver::Summary summary;
     ceres::Solve(o, &problem, &summary);
+    if (std::getenv("T2S_DEBUG")) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
     out.solverIterations += static_cast<int>(summary.iterations.size());
     V.setControlPoints(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(Pflat.data(), nc, 3));
     gj = gaussJacobians(V, L, T, opt.threads);

@@ -16,10 +16,12 @@ namespace {
 
 constexpr int kLocal = 27;  // a degree-2 element: 3 × 3 × 3 control points
 
+/// 27 control points; blocks are scalars: all of them (coordinate c of point l
+/// at 3l + c), or one coordinate's 27 values.
 struct Params {
   std::vector<double> values;
   std::vector<const double*> blocks;
-  explicit Params(unsigned seed) : values(3 * kLocal) {
+  explicit Params(unsigned seed, int coordinate = -1) : values(3 * kLocal) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> uni(-0.2, 0.2);
     // Near the identity grid (det J > 0), perturbed.
@@ -28,7 +30,9 @@ struct Params {
       values[3 * l + 1] = (l / 3 % 3) / 2.0 + uni(rng);
       values[3 * l + 2] = (l / 9) / 2.0 + uni(rng);
     }
-    for (int l = 0; l < kLocal; ++l) blocks.push_back(&values[3 * l]);
+    for (int l = 0; l < kLocal; ++l)
+      for (int c = 0; c < 3; ++c)
+        if (coordinate < 0 || coordinate == c) blocks.push_back(&values[3 * l + c]);
   }
 };
 
@@ -50,24 +54,31 @@ TEST(FitCosts, PointDataCostDerivatives) {
   Eigen::VectorXd N(kLocal);
   for (int l = 0; l < kLocal; ++l) N[l] = uni(rng);
   N /= N.sum();
-  const PointDataCost cost(N, Eigen::Vector3d(0.3, -0.1, 2.0), 1.7);
-  for (unsigned s = 0; s < 5; ++s) expectDerivativesMatch(cost, Params(s));
+  const PointDataCost cost(N, 0.3, 1.7);
+  for (unsigned s = 0; s < 5; ++s) {
+    const Params x(s, s % 3);
+    expectDerivativesMatch(cost, x);
+    double r = 0;
+    ASSERT_TRUE(cost.Evaluate(x.blocks.data(), &r, nullptr));
+    double v = 0;
+    for (int l = 0; l < kLocal; ++l) v += N[l] * *x.blocks[l];
+    EXPECT_NEAR(r, 1.7 * (v - 0.3), 1e-14);
+  }
 }
 
 TEST(FitCosts, ElementQuadraticCostDerivativesAndValue) {
   std::srand(2);
   const Eigen::MatrixXd R = Eigen::MatrixXd::Random(20, kLocal);
-  const Eigen::MatrixX3d D = Eigen::MatrixX3d::Random(20, 3);
-  const ElementQuadraticCost cost(R, D);
+  const Eigen::VectorXd d = Eigen::VectorXd::Random(20);
+  const ElementQuadraticCost cost(R, d);
   for (unsigned s = 0; s < 5; ++s) {
-    Params x(s);
+    const Params x(s, s % 3);
     expectDerivativesMatch(cost, x);
-    // |r|² = Σ_c |R P_c − D_c|².
-    Eigen::MatrixX3d P(kLocal, 3);
-    for (int l = 0; l < kLocal; ++l) P.row(l) << x.values[3 * l], x.values[3 * l + 1], x.values[3 * l + 2];
-    std::vector<double> r(60);
+    Eigen::VectorXd p(kLocal);
+    for (int l = 0; l < kLocal; ++l) p[l] = *x.blocks[l];
+    std::vector<double> r(20);
     ASSERT_TRUE(cost.Evaluate(x.blocks.data(), r.data(), nullptr));
-    EXPECT_NEAR(Eigen::Map<Eigen::VectorXd>(r.data(), 60).squaredNorm(), (R * P - D).squaredNorm(), 1e-10);
+    EXPECT_LT((Eigen::Map<Eigen::VectorXd>(r.data(), 20) - (R * p - d)).norm(), 1e-12);
   }
 }
 

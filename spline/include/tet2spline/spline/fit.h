@@ -52,7 +52,7 @@ struct FitOptions {
   bool enforceValidity = true;            ///< run the validity stage when det J <= 0 somewhere
   double validityFraction = 0.05;         ///< τ / J̄ in (2)
   int maxValidityIterations = 8;          ///< outer (μ) iterations of the validity stage
-  int maxSolverIterations = 100;          ///< Ceres iterations per validity iteration
+  int maxSolverIterations = 25;           ///< Ceres iterations per validity iteration
   /// Linear stage (1): CHOLMOD on the assembled normal equations (fast), or
   /// the same objective as a Ceres problem (SPARSE_NORMAL_CHOLESKY).
   enum class LinearSolver { Cholmod, Ceres } linearSolver = LinearSolver::Cholmod;
