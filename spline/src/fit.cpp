@@ -10,8 +10,6 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Sparse>
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -498,7 +496,6 @@ LinearOutcome solveCeresLinear(const Problem& pb, int threads) {
   o.initial_trust_region_radius = 1e12;  // the problem is linear: take the Gauss-Newton step
   ceres::Solver::Summary summary;
   ceres::Solve(o, &problem, &summary);
-  if (std::getenv("T2S_DEBUG")) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
   out.solve = since(t1);
   out.iterations = static_cast<int>(summary.iterations.size());
   if (!summary.IsSolutionUsable()) {
@@ -592,7 +589,6 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
     o.parameter_tolerance = 1e-9;
     ceres::Solver::Summary summary;
     ceres::Solve(o, &problem, &summary);
-    if (std::getenv("T2S_DEBUG")) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
     out.solverIterations += static_cast<int>(summary.iterations.size());
     V.setControlPoints(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(Pflat.data(), nc, 3));
     gj = gaussJacobians(V, L, T, opt.threads);

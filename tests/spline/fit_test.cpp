@@ -88,7 +88,7 @@ TEST(Fit, AffineMapsSurviveSmoothingAndWeights) {
 }
 
 TEST(Fit, CeresAndCholmodLinearStagesAgree) {
-  const Eigen::MatrixX3d U = randomParameters(1500, 4);
+  const Eigen::MatrixX3d U = randomParameters(600, 4);
   const Eigen::MatrixX3d X = apply(U, [](const Eigen::Vector3d& u) {
     return Eigen::Vector3d(std::sin(u[0]) + 0.2 * u[1], u[1] + 0.2 * std::cos(u[0] + u[2]), std::exp(0.3 * u[0] * u[2]) + u[2]);
   });
