@@ -42,7 +42,7 @@ double peakMemoryMB() {
 int main(int argc, char** argv) {
   long points = 180000;
   int elements = 16, degree = 3, threads = 2;
-  double smoothing = 1e-6, fold = 0.0;
+  double smoothing = FitOptions{}.smoothingWeight, fold = 0.0;
   std::string solver = "cholmod";
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];

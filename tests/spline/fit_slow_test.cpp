@@ -34,7 +34,9 @@ TEST(FitSlow, ErrorFallsUnderRefinementForASmoothMap) {
     EXPECT_GT(r.minScaledJacobian, 0.0);
     std::printf("elements %2d^3: rms_rel %.3e max_rel %.3e (%.2f s)\n", e, r.rmsErrorRelative, r.maxErrorRelative,
                 r.timings.total);
-    if (previous > 0) EXPECT_LT(r.rmsErrorRelative, 0.5 * previous) << e << " elements";
+    if (previous > 0) {
+      EXPECT_LT(r.rmsErrorRelative, 0.5 * previous) << e << " elements";
+    }
     previous = r.rmsErrorRelative;
   }
 }

@@ -45,7 +45,7 @@ struct FitOptions {
   int degree = 3;                         ///< p in every direction
   Eigen::Vector3i elements{8, 8, 8};      ///< uniform knot spans per direction (Nu, Nv, Nw)
   /// λ in (1). It biases the fit (≈ λ-proportional error floor): on 100k
-  /// samples of a smooth map, 1e-9 already limits 16^3 elements to ~1e-6
+  /// samples of a smooth map, 1e-9 already limits 16^3 elements to ~6e-7
   /// relative RMS, 1e-11 does not. Raise it for noisy data or empty elements.
   double smoothingWeight = 1e-8;
   double boundaryWeight = 10.0;           ///< multiplies w_i of boundary points
