@@ -212,6 +212,20 @@ TEST(CadExport, GmshMeshesTheExportedSolid) {
   }
 }
 
+// Faces meeting tangentially along four edges (det J = 0 there) still sew
+// into one valid solid.
+TEST(CadExport, TangentFacesAlongEdges) {
+  const std::string dir = scratchDir("cad_tangent");
+  const BSplineVolume V = cylinderPatch(0.5);
+  ASSERT_GT(minInteriorDetJ(V), 0);
+  EXPECT_NEAR(V.detJacobian(Eigen::Vector3d(1, 1, 0.5)), 0, 1e-12);
+  for (Kind k : {Kind::Step, Kind::Iges}) {
+    const std::string path = dir + "/smooth_cylinder" + ext(k);
+    write(k, V, path);
+    checkReadBack(k, V, path);
+  }
+}
+
 TEST(CadExport, DegenerateVolumeIsANumericalErrorAndLeavesNoFile) {
   const std::string dir = scratchDir("cad_degenerate");
   BSplineVolume V = refinedBox();

@@ -48,8 +48,12 @@ inline BSplineVolume curvedCube() {
 /// A cylinder-like patch: the cross-section is the quadratic 3×3 net of a
 /// rounded square (corners pulled in), extruded linearly to height 2 and then
 /// refined (degree elevation in w, knots in u and w).
-inline BSplineVolume cylinderPatch() {
-  const double c = 0.7, m = 1.0, h = 2.0;
+/// With corner = 0.5 the corner control points of the cross-section lie on
+/// the line between their neighbours: the faces u = const and v = const meet
+/// tangentially (at 180°) along the four vertical edges, where det J = 0 - the
+/// case of a single patch mapped onto a smooth solid (design.md).
+inline BSplineVolume cylinderPatch(double corner = 0.7) {
+  const double c = corner, m = 1.0, h = 2.0;
   const double net[3][3][2] = {{{-c, -c}, {0, -m}, {c, -c}}, {{-m, 0}, {0, 0}, {m, 0}}, {{-c, c}, {0, m}, {c, c}}};
   Eigen::MatrixX3d P(18, 3);
   for (int k = 0; k < 2; ++k)
