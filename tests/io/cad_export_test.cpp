@@ -226,6 +226,23 @@ TEST(CadExport, TangentFacesAlongEdges) {
   }
 }
 
+// A left-handed volume (det J < 0 everywhere, mirrored): the B-rep is still
+// oriented outward, with volume |∫ det J|.
+TEST(CadExport, LeftHandedVolumeIsOrientedOutward) {
+  const std::string dir = scratchDir("cad_left_handed");
+  BSplineVolume V = curvedCube();
+  Eigen::MatrixX3d P = V.controlPoints();
+  P.col(0) *= -1;
+  V.setControlPoints(P);
+  ASSERT_LT(V.volume(), 0);
+  const std::string path = dir + "/mirrored.step";
+  tet2spline::writeStep(V, path);
+  const TopoDS_Shape shape = readCad(Kind::Step, path);
+  EXPECT_EQ(countOf(shape, TopAbs_SOLID), 1);
+  EXPECT_TRUE(BRepCheck_Analyzer(shape).IsValid());
+  EXPECT_NEAR(cadVolume(shape), -V.volume(), 1e-4 * -V.volume());
+}
+
 TEST(CadExport, DegenerateVolumeIsANumericalErrorAndLeavesNoFile) {
   const std::string dir = scratchDir("cad_degenerate");
   BSplineVolume V = refinedBox();

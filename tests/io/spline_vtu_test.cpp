@@ -201,6 +201,61 @@ TEST(SplineVtu, BadInputsLeaveNoFile) {
   EXPECT_TRUE(fs::is_empty(dir));
 }
 
+// VTK itself (Debian's python3-vtk9 under /usr/bin/python3, when installed) reads the file: counts,
+// cell types, its own cell volumes (vtkCellSizeFilter) and the arrays.
+TEST(SplineVtu, ReadByVtk) {
+  if (run("/usr/bin/python3 -c 'import vtkmodules.vtkIOXML, vtkmodules.vtkFiltersVerdict'") != 0)
+    GTEST_SKIP() << "python3-vtk9 not installed";
+  const std::string dir = scratchDir("spline_vtu_vtk");
+  const std::string script = dir + "/read.py";
+  writeFile(script,
+            "import sys\n"
+            "from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader\n"
+            "from vtkmodules.vtkFiltersVerdict import vtkCellSizeFilter\n"
+            "r = vtkXMLUnstructuredGridReader()\n"
+            "r.SetFileName(sys.argv[1])\n"
+            "r.Update()\n"
+            "g = r.GetOutput()\n"
+            "types = sorted(set(g.GetCellType(i) for i in range(g.GetNumberOfCells())))\n"
+            "f = vtkCellSizeFilter()\n"
+            "f.SetInputData(g)\n"
+            "f.Update()\n"
+            "vol = f.GetOutput().GetCellData().GetArray('Volume')\n"
+            "vols = [vol.GetValue(i) for i in range(vol.GetNumberOfTuples())]\n"
+            "pd, cd = g.GetPointData(), g.GetCellData()\n"
+            "print(g.GetNumberOfPoints(), g.GetNumberOfCells(), len(types), types[0], sum(vols), min(vols),\n"
+            "      pd.GetArray('detJ').GetRange()[0], pd.GetArray('scaledJacobian').GetRange()[1],\n"
+            "      cd.GetArray('region').GetRange()[0], cd.GetArray('region').GetRange()[1])\n");
+  for (bool binary : {true, false}) {
+    SCOPED_TRACE(binary ? "binary" : "ascii");
+    const BSplineVolume V = curvedCube();
+    std::vector<int> region;
+    for (const auto& e : V.elements()) region.push_back(e.index.x() + 10);
+    const std::string vtu = dir + (binary ? "/b.vtu" : "/a.vtu"), out = vtu + ".txt";
+    tet2spline::writeSplineVtu(V, vtu, region, {4, binary});
+    ASSERT_EQ(std::system(("/usr/bin/python3 " + script + " " + vtu + " > " + out).c_str()), 0);
+    std::istringstream in(readFile(out));
+    size_t points = 0, cells = 0;
+    int ntypes = 0, type = 0;
+    double total = 0, minCell = 0, minDetJ = 0, maxScaled = 0, rmin = 0, rmax = 0;
+    ASSERT_TRUE(in >> points >> cells >> ntypes >> type >> total >> minCell >> minDetJ >> maxScaled >> rmin >> rmax)
+        << readFile(out);
+    const Eigen::Vector3i ne = V.numElements();
+    EXPECT_EQ(points, static_cast<size_t>(4 * ne[0] + 1) * (4 * ne[1] + 1) * (4 * ne[2] + 1));
+    EXPECT_EQ(cells, static_cast<size_t>(64) * ne[0] * ne[1] * ne[2]);
+    EXPECT_EQ(ntypes, 1);
+    EXPECT_EQ(type, 12);
+    std::cout << "[ measured ] VTK: " << cells << " hexahedra, volume " << total << " vs spline " << V.volume()
+              << ", smallest cell " << minCell << ", min det J " << minDetJ << "\n";
+    EXPECT_NEAR(total, V.volume(), 0.2 / 16 * V.volume());
+    EXPECT_GT(minCell, 0);
+    EXPECT_GT(minDetJ, 0);
+    EXPECT_LE(maxScaled, 1.0 + 1e-12);
+    EXPECT_EQ(rmin, 10);
+    EXPECT_EQ(rmax, 10 + ne[0] - 1);
+  }
+}
+
 TEST(SplineVtu, Deterministic) {
   const std::string dir = scratchDir("spline_vtu_determinism");
   tet2spline::writeSplineVtu(curvedCube(), dir + "/a.vtu");
