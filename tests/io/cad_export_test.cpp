@@ -90,6 +90,32 @@ bool samePoles(std::vector<std::array<double, 3>> a, std::vector<std::array<doub
   return true;
 }
 
+// Parameter n (1-based) of an IGES global section: ',' separated, ';' ends
+// it, strings are Hollerith (nH followed by n characters).
+std::string igesGlobalParameter(const std::string& file, int n) {
+  std::istringstream in(file);
+  std::string line, g;
+  while (std::getline(in, line))
+    if (line.size() >= 73 && line[72] == 'G') g += line.substr(0, 72);
+  std::vector<std::string> params;
+  std::string cur;
+  for (size_t i = 0; i < g.size(); ++i) {
+    const char ch = g[i];
+    if (ch == ',' || ch == ';') {
+      params.push_back(cur);
+      cur.clear();
+      if (ch == ';') break;
+    } else if (ch == 'H' && !cur.empty() && std::all_of(cur.begin(), cur.end(), ::isdigit)) {
+      const size_t len = std::stoul(cur);
+      cur = g.substr(i + 1, len);
+      i += len;
+    } else if (ch != ' ') {
+      cur += ch;
+    }
+  }
+  return n >= 1 && static_cast<size_t>(n) <= params.size() ? params[static_cast<size_t>(n) - 1] : std::string("<missing>");
+}
+
 void checkReadBack(Kind k, const BSplineVolume& V, const std::string& path) {
   ASSERT_TRUE(fs::exists(path));
   const TopoDS_Shape shape = readCad(k, path);
@@ -183,6 +209,8 @@ TEST(CadExport, IgesReadsBackAsTheSameSolid) {
     }
     EXPECT_GE(bsplineSurfaces, 6);
     EXPECT_EQ(solids, 1);
+    // Global section parameter 23, the version flag: 11 = IGES 5.3.
+    EXPECT_EQ(igesGlobalParameter(readFile(path), 23), "11");
   }
 }
 
