@@ -145,6 +145,19 @@ void expectConsistent(const BSplineVolume& V, const MfemFile& f, int attribute) 
     return -1;
   };
   for (const auto& he : kHexEdge) EXPECT_NE(indexOf(he[0], he[1]), -1) << he[0] << "-" << he[1];
+  // MFEM's CheckPatches: with the signed index of each listed edge (-1 - k
+  // when v0 > v1) seen through the element's edge orientation (negated again
+  // when the hex edge runs from the larger vertex), the four parallel edges of
+  // each direction must agree - and here be the direction itself, unsigned.
+  std::vector<int> seenByElement;
+  for (const auto& he : kHexEdge) {
+    int k = 0, v0 = 0, v1 = 0;
+    for (const auto& e : f.edges)
+      if ((e[1] == he[0] && e[2] == he[1]) || (e[1] == he[1] && e[2] == he[0])) k = e[0], v0 = e[1], v1 = e[2];
+    const int signedIndex = v0 > v1 ? -1 - k : k;
+    seenByElement.push_back(he[0] < he[1] ? signedIndex : -1 - signedIndex);
+  }
+  EXPECT_EQ(seenByElement, (std::vector<int>{0, 1, 0, 1, 0, 1, 0, 1, 2, 2, 2, 2}));
   EXPECT_EQ(indexOf(0, 1), 0);
   EXPECT_EQ(indexOf(0, 3), 1);
   EXPECT_EQ(indexOf(0, 4), 2);
