@@ -1,6 +1,7 @@
 // STEP/IGES export of a B-spline volume's boundary (see cad_export.h).
 #include "tet2spline/io/cad_export.h"
 
+#include <APIHeaderSection_MakeHeader.hxx>
 #include <BRepBuilderAPI_MakeFace.hxx>
 #include <BRepBuilderAPI_MakeSolid.hxx>
 #include <BRepBuilderAPI_Sewing.hxx>
@@ -12,12 +13,17 @@
 #include <IFSelect_ReturnStatus.hxx>
 #include <IGESControl_Controller.hxx>
 #include <IGESControl_Writer.hxx>
+#include <IGESData_GlobalSection.hxx>
+#include <IGESData_IGESModel.hxx>
 #include <Interface_Static.hxx>
 #include <Message.hxx>
 #include <Message_Messenger.hxx>
 #include <Message_Printer.hxx>
 #include <STEPControl_Controller.hxx>
 #include <STEPControl_Writer.hxx>
+#include <StepBasic_Product.hxx>
+#include <StepData_StepModel.hxx>
+#include <TCollection_HAsciiString.hxx>
 #include <Precision.hxx>
 #include <ShapeFix_Solid.hxx>
 #include <Standard_Failure.hxx>
@@ -156,6 +162,17 @@ class QuietOcct {
   std::vector<std::pair<Handle(Message_Printer), Message_Gravity>> saved_;
 };
 
+// Header fields that would otherwise hold the time and the user: fixed, so
+// that the same volume gives byte-identical files.
+constexpr const char* kSystem = "tet2spline";
+
+std::string baseName(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+Handle(TCollection_HAsciiString) hstring(const std::string& s) { return new TCollection_HAsciiString(s.c_str()); }
+
 }  // namespace
 
 void writeStep(const spline::BSplineVolume& volume, const std::string& path, const CadExportOptions& options) {
@@ -169,6 +186,21 @@ void writeStep(const spline::BSplineVolume& volume, const std::string& path, con
     Interface_Static::SetCVal("write.step.schema", "AP214IS");
     if (writer.Transfer(solid, STEPControl_ManifoldSolidBrep) != IFSelect_RetDone)
       fail(path, "STEP translation of the boundary solid failed");
+    // OCCT names the product with a process-wide counter; name it after the file.
+    const Handle(StepData_StepModel) model = writer.Model();
+    const std::string stem = baseName(path).substr(0, baseName(path).find_last_of('.'));
+    for (int i = 1; i <= model->NbEntities(); ++i) {
+      const Handle(StepBasic_Product) product = Handle(StepBasic_Product)::DownCast(model->Value(i));
+      if (product.IsNull()) continue;
+      product->SetId(hstring(stem));
+      product->SetName(hstring(stem));
+    }
+    APIHeaderSection_MakeHeader header(model);
+    header.SetName(hstring(baseName(path)));
+    header.SetTimeStamp(hstring("1970-01-01T00:00:00"));
+    header.SetAuthorValue(1, hstring(kSystem));
+    header.SetOrganizationValue(1, hstring(kSystem));
+    header.SetOriginatingSystem(hstring(kSystem));
     if (writer.Write(file.temporaryPath().c_str()) != IFSelect_RetDone)
       throwInputError(path, 0, "cannot write the STEP file");
     file.commit();
@@ -188,6 +220,13 @@ void writeIges(const spline::BSplineVolume& volume, const std::string& path, con
     IGESControl_Writer writer("MM", 1);
     if (!writer.AddShape(solid)) fail(path, "IGES translation of the boundary solid failed");
     writer.ComputeModel();
+    IGESData_GlobalSection global = writer.Model()->GlobalSection();
+    global.SetFileName(hstring(baseName(path)));
+    global.SetDate(hstring("19700101.000000"));
+    global.SetLastChangeDate(hstring("19700101.000000"));
+    global.SetAuthorName(hstring(kSystem));
+    global.SetCompanyName(hstring(kSystem));
+    writer.Model()->SetGlobalSection(global);
     if (!writer.Write(file.temporaryPath().c_str())) throwInputError(path, 0, "cannot write the IGES file");
     file.commit();
   } catch (const Standard_Failure& e) {

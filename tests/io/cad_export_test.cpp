@@ -18,6 +18,7 @@
 #include <TopoDS_Face.hxx>
 
 #include <chrono>
+#include <thread>
 
 #include "io_test_util.h"
 #include "spline_test_volumes.h"
@@ -302,6 +303,19 @@ TEST(CadExport, DegenerateVolumeIsANumericalErrorAndLeavesNoFile) {
     }
   }
   EXPECT_TRUE(fs::is_empty(dir));
+}
+
+TEST(CadExport, Deterministic) {
+  const std::string dir = scratchDir("cad_determinism");
+  const BSplineVolume V = cylinderPatch();
+  fs::create_directory(dir + "/a");
+  fs::create_directory(dir + "/b");
+  for (Kind k : {Kind::Step, Kind::Iges}) {
+    write(k, V, dir + "/a/v" + ext(k));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // past the seconds of a time stamp
+    write(k, V, dir + "/b/v" + ext(k));
+    EXPECT_TRUE(readFile(dir + "/a/v" + ext(k)) == readFile(dir + "/b/v" + ext(k))) << "diff " << dir << "/{a,b}/v" << ext(k);
+  }
 }
 
 TEST(CadExport, UnwritablePathLeavesNoFile) {

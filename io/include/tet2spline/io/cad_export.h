@@ -14,7 +14,10 @@
 /// solid B-rep. IGES: 5.3 in BRep mode (write.iges.brep.mode = 1: MSBO solid
 /// with B-spline surface entities, type 128), IGESControl_Writer. Lengths are
 /// written with the writers' default unit (millimetre) and the coordinates as
-/// they are: 1 model unit = 1 mm.
+/// they are: 1 model unit = 1 mm. Header fields that would hold the time or
+/// the user (STEP FILE_NAME time stamp and author, IGES dates and author) are
+/// fixed ("tet2spline", 1970-01-01) and the STEP product is named after the
+/// file's stem, so the same volume and file name give the same bytes.
 ///
 /// Preconditions: det J > 0 inside the volume, so that the boundary is a
 /// closed surface; det J may vanish along the 12 edges of the parameter cube
