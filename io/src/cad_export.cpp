@@ -84,14 +84,16 @@ TopoDS_Solid boundarySolid(const spline::BSplineVolume& volume, const std::strin
                            const CadExportOptions& options) {
   const Eigen::MatrixX3d& P = volume.controlPoints();
   const double diagonal = (P.colwise().maxCoeff() - P.colwise().minCoeff()).norm();
-  if (!(diagonal > 0) || !std::isfinite(diagonal)) fail(path, "the control points span no volume (bounding-box diagonal " + std::to_string(diagonal) + ")");
+  if (!(diagonal > 0) || !std::isfinite(diagonal))
+    fail(path, "the control points span no volume (bounding-box diagonal " + std::to_string(diagonal) + ")");
   const double tolerance = options.relativeSewingTolerance * diagonal;
 
   BRepBuilderAPI_Sewing sewing(tolerance);
   for (int f = 0; f < 6; ++f) {
     const Handle(Geom_BSplineSurface) surface = toOcct(volume.face(static_cast<spline::VolumeFace>(f)));
     BRepBuilderAPI_MakeFace face(surface, Precision::Confusion());
-    if (!face.IsDone()) fail(path, "cannot make boundary face " + std::to_string(f) + " (error " + std::to_string(face.Error()) + ")");
+    if (!face.IsDone())
+      fail(path, "cannot make boundary face " + std::to_string(f) + " (error " + std::to_string(face.Error()) + ")");
     sewing.Add(face.Face());
   }
   sewing.Perform();
@@ -99,6 +101,9 @@ TopoDS_Solid boundarySolid(const spline::BSplineVolume& volume, const std::strin
   if (sewing.NbFreeEdges() > 0)
     fail(path, "sewing the six boundary faces left " + std::to_string(sewing.NbFreeEdges()) +
                    " free edges (tolerance " + std::to_string(tolerance) + ")");
+  if (sewing.NbMultipleEdges() > 0)
+    fail(path, "sewing the six boundary faces found " + std::to_string(sewing.NbMultipleEdges()) +
+                   " edges shared by more than two faces");
   TopoDS_Shell shell;
   int shells = 0;
   for (TopExp_Explorer ex(sewn, TopAbs_SHELL); ex.More(); ex.Next()) {
