@@ -130,7 +130,7 @@ Rgb colorMapColor(ColorMap map, double t) {
   return map == ColorMap::Diverging ? piecewise(kDiverging, t) : piecewise(kViridis, t);
 }
 
-Rgb categoricalColor(int label) { return kCategorical[size_t(((label % 10) + 10) % 10)]; }
+Rgb categoricalColor(int label) { return kCategorical[size_t((((label - 1) % 10) + 10) % 10)]; }
 
 Image renderSurface(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const SurfaceColors& colors,
                     const RenderOptions& o) {

@@ -103,8 +103,9 @@ Image renderTetCut(const Eigen::MatrixX3d& V, const Eigen::MatrixX4i& T, const C
 /// For ColorMap::Categorical, t is taken as a label: categoricalColor(lround(t)).
 Rgb colorMapColor(ColorMap map, double t);
 
-/// A 10-colour qualitative palette (Tableau 10), indexed by label modulo 10, so a
-/// region keeps its colour in every picture.
+/// A 10-colour qualitative palette (Tableau 10), indexed by (label − 1) modulo 10
+/// (region tags start at 1, which gets the palette's blue), so a region keeps its
+/// colour in every picture and table.
 Rgb categoricalColor(int label);
 
 /// A horizontal colour bar as an <svg> element for inline use in HTML (no xmlns, no
