@@ -97,7 +97,7 @@ footer{max-width:1240px;margin:0 auto;padding:0 28px 30px;color:var(--muted);fon
 
 void writeHistogram(std::ostringstream& s, const ReportHistogram& h) {
   const HistogramBins b = histogramBins(h);
-  const double W = 520, H = 270, left = 56, right = 18, top = 16, bottom = 48;
+  const double W = 520, H = 276, left = 56, right = 18, top = 22, bottom = 48;
   const double plotW = W - left - right, plotH = H - top - bottom;
   const double x0 = b.edges.front(), x1 = b.edges.back();
   double maxCount = 0, total = 0;
@@ -156,10 +156,10 @@ void writeHistogram(std::ostringstream& s, const ReportHistogram& h) {
     const double x = X(h.reference);
     s << "<line class=\"reference\" x1=\"" << coord(x) << "\" x2=\"" << coord(x) << "\" y1=\"" << top << "\" y2=\""
       << top + plotH << "\" stroke=\"#c2410c\" stroke-width=\"1.5\" stroke-dasharray=\"5 3\"/>";
-    const bool leftSide = x > left + plotW * 0.7;
-    s << "<text x=\"" << coord(x + (leftSide ? -5 : 5)) << "\" y=\"" << top + 11 << "\" font-size=\"11\" fill=\"#c2410c\""
-      << (leftSide ? " text-anchor=\"end\"" : "") << ">"
-      << escape(h.referenceLabel.empty() ? number(h.reference) : h.referenceLabel) << "</text>";
+    // The label sits in the top margin, above the bars, centred on the line unless near an end.
+    const char* anchor = x > left + plotW * 0.85 ? "end" : x < left + plotW * 0.15 ? "start" : "middle";
+    s << "<text x=\"" << coord(x) << "\" y=\"" << top - 6 << "\" font-size=\"11\" fill=\"#c2410c\" text-anchor=\""
+      << anchor << "\">" << escape(h.referenceLabel.empty() ? number(h.reference) : h.referenceLabel) << "</text>";
   }
   s << "<text x=\"" << coord(left + plotW / 2) << "\" y=\"" << H - 8
     << "\" font-size=\"12\" text-anchor=\"middle\" fill=\"#1f2733\">" << escape(h.xLabel) << "</text>";
