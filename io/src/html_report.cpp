@@ -93,6 +93,7 @@ tr.void td{color:var(--muted)}
 .dev-bad{color:var(--warn);font-weight:600}
 .timings svg{width:100%;max-width:900px;height:auto;display:block}
 footer{max-width:1240px;margin:0 auto;padding:0 28px 30px;color:var(--muted);font-size:12px}
+@media print{body{background:#fff}.card{box-shadow:none;break-inside:avoid}header.top{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
 )css";
 
 void writeHistogram(std::ostringstream& s, const ReportHistogram& h) {
@@ -120,9 +121,11 @@ void writeHistogram(std::ostringstream& s, const ReportHistogram& h) {
   } else {
     yTicks = svg::niceTicks(0, std::max(maxCount, 1.0), 5);
   }
+  double lastTickY = 1e9;
   for (const double t : yTicks) {
     const double y = Y(t);
-    if (y < top - 0.5) continue;
+    if (y < top - 0.5 || lastTickY - y < 12) continue;  // no overlapping labels (log scale: 0 and 1)
+    lastTickY = y;
     s << "<line x1=\"" << left << "\" x2=\"" << W - right << "\" y1=\"" << coord(y) << "\" y2=\"" << coord(y)
       << "\" stroke=\"#e6eaef\"/>";
     s << "<text x=\"" << left - 6 << "\" y=\"" << coord(y + 4) << "\" font-size=\"11\" text-anchor=\"end\" fill=\"#5d6b7e\">"
@@ -150,7 +153,7 @@ void writeHistogram(std::ostringstream& s, const ReportHistogram& h) {
     s << "<line x1=\"" << coord(x) << "\" x2=\"" << coord(x) << "\" y1=\"" << top + plotH << "\" y2=\"" << top + plotH + 5
       << "\" stroke=\"#334\"/>";
     s << "<text x=\"" << coord(x) << "\" y=\"" << top + plotH + 18
-      << "\" font-size=\"11\" text-anchor=\"middle\" fill=\"#5d6b7e\">" << number(t) << "</text>";
+      << "\" font-size=\"11\" text-anchor=\"middle\" fill=\"#5d6b7e\">" << number(t, 6) << "</text>";
   }
   if (h.hasReference && std::isfinite(h.reference) && h.reference >= x0 && h.reference <= x1) {
     const double x = X(h.reference);

@@ -414,7 +414,7 @@ std::string colorBarSvg(ColorMap map, double min, double max, const std::string&
       s << "<line x1=\"" << svg::coord(x) << "\" x2=\"" << svg::coord(x) << "\" y1=\"" << barY + barH << "\" y2=\""
         << barY + barH + 4 << "\" stroke=\"#445\"/>";
       s << "<text x=\"" << svg::coord(x) << "\" y=\"" << barY + barH + 15
-        << "\" font-size=\"11\" text-anchor=\"middle\" fill=\"#445\">" << svg::number(t) << "</text>";
+        << "\" font-size=\"11\" text-anchor=\"middle\" fill=\"#445\">" << svg::number(t, 6) << "</text>";
     }
   }
   s << "</svg>";

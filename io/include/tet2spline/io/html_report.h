@@ -68,7 +68,9 @@ struct ReportTiming {
 struct ReportImage {
   std::string caption;
   Image image;
-  bool hasColorBar = false;  ///< continuous colours: a colour bar of colorMap over [scalarMin, scalarMax]
+  /// Continuous colours: a colour bar of colorMap over [scalarMin, scalarMax]; pass the
+  /// range the picture was rendered with (RenderOptions::scalarMin/Max).
+  bool hasColorBar = false;
   ColorMap colorMap = ColorMap::Viridis;
   double scalarMin = 0, scalarMax = 1;
   std::string scalarLabel;
