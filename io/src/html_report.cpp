@@ -124,7 +124,7 @@ void writeHistogram(std::ostringstream& s, const ReportHistogram& h) {
   double lastTickY = 1e9;
   for (const double t : yTicks) {
     const double y = Y(t);
-    if (y < top - 0.5 || lastTickY - y < 12) continue;  // no overlapping labels (log scale: 0 and 1)
+    if (y < top - 0.5 || lastTickY - y < 16) continue;  // no overlapping labels (log scale: 0 and 1)
     lastTickY = y;
     s << "<line x1=\"" << left << "\" x2=\"" << W - right << "\" y1=\"" << coord(y) << "\" y2=\"" << coord(y)
       << "\" stroke=\"#e6eaef\"/>";
