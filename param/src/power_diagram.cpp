@@ -16,6 +16,8 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <sstream>
 #include <utility>
@@ -80,11 +82,6 @@ GeodesicSphere geodesicSphere(int subdivisions) {
 // identically for both faces that share the edge. Coordinates are local to the
 // site (x − y_i) for accuracy.
 
-struct Plane {
-  Eigen::Vector3d n;  // inside: n · x <= c
-  double c;
-};
-
 class ConvexCell {
  public:
   // The box [lo, hi] (local coordinates); its faces get sources -1 .. -6.
@@ -98,14 +95,16 @@ class ConvexCell {
     faceStart_.assign(1, 0);
     faceVerts_.clear();
     faceSource_.clear();
-    planes_.clear();
+    facePlane_.clear();
+    normals_.clear();
     for (int f = 0; f < 6; ++f) {
       for (int k = 0; k < 4; ++k) faceVerts_.push_back(faces[f][k]);
       faceStart_.push_back(static_cast<int>(faceVerts_.size()));
       faceSource_.push_back(-1 - f);
+      facePlane_.push_back(f);
       Eigen::Vector3d n = Eigen::Vector3d::Zero();
       n[f / 2] = (f % 2) ? 1 : -1;
-      planes_.push_back({n, (f % 2) ? hi[f / 2] : -lo[f / 2]});
+      normals_.push_back(n);
     }
   }
 
@@ -118,114 +117,100 @@ class ConvexCell {
     side_.resize(nv);
     int outside = 0;
     for (int v = 0; v < nv; ++v) {
-      side_[v] = n.dot(verts_[v]) - c;
-      outside += side_[v] > 0;
+      const double s = n.dot(verts_[v]) - c;
+      side_[v] = s;
+      outside += s > 0;
     }
     if (outside == 0) return false;
     if (outside == nv) {
-      faceSource_.clear();
-      faceStart_.assign(1, 0);
-      faceVerts_.clear();
-      verts_.clear();
+      clear();
       return true;
     }
-    // Renumber the kept vertices, then add one vertex per cut edge.
-    remap_.assign(nv, -1);
+    // Renumber the kept vertices; cut vertices follow, one per cut edge.
+    remap_.resize(nv);
     newVerts_.clear();
-    for (int v = 0; v < nv; ++v)
+    for (int v = 0; v < nv; ++v) {
       if (side_[v] <= 0) {
         remap_[v] = static_cast<int>(newVerts_.size());
         newVerts_.push_back(verts_[v]);
+      } else {
+        remap_[v] = -1;
       }
+    }
+    firstCut_ = static_cast<int>(newVerts_.size());
     cutEdges_.clear();
     capNext_.clear();
-    auto cutVertex = [&](int in, int out) {
-      for (const auto& e : cutEdges_)
-        if (e[0] == in && e[1] == out) return e[2];
-      const double t = side_[in] / (side_[in] - side_[out]);
-      newVerts_.push_back(verts_[in] + t * (verts_[out] - verts_[in]));
-      const int id = static_cast<int>(newVerts_.size()) - 1;
-      cutEdges_.push_back({in, out, id});
-      return id;
-    };
     newStart_.assign(1, 0);
     newFaceVerts_.clear();
     newSource_.clear();
-    newPlanes_.clear();
-    capNext_.clear();
+    newPlane_.clear();
     const int nf = static_cast<int>(faceSource_.size());
     for (int f = 0; f < nf; ++f) {
-      const int b = faceStart_[f], e = faceStart_[f + 1], m = e - b;
+      const int b = faceStart_[f], e = faceStart_[f + 1];
       const std::size_t before = newFaceVerts_.size();
-      events_.clear();  // (+1 exit | -1 entry, vertex) in walk order
-      for (int k = 0; k < m; ++k) {
-        const int cur = faceVerts_[b + k], nxt = faceVerts_[b + (k + 1) % m];
-        const bool curIn = side_[cur] <= 0, nxtIn = side_[nxt] <= 0;
-        if (curIn) newFaceVerts_.push_back(remap_[cur]);
-        if (curIn && !nxtIn) {
-          const int x = cutVertex(cur, nxt);
-          newFaceVerts_.push_back(x);
-          events_.push_back({1, x});
-        } else if (!curIn && nxtIn) {
-          const int y = cutVertex(nxt, cur);
-          newFaceVerts_.push_back(y);
-          events_.push_back({-1, y});
+      int prev = faceVerts_[e - 1];
+      bool prevIn = side_[prev] <= 0;
+      int pendingExit = -1, firstEntry = -1;
+      for (int k = b; k < e; ++k) {
+        const int cur = faceVerts_[k];
+        const bool curIn = side_[cur] <= 0;
+        if (prevIn != curIn) {
+          if (prevIn) {  // leaving the half-space
+            pendingExit = cutVertex(prev, cur);
+            newFaceVerts_.push_back(pendingExit);
+          } else {  // entering: the face runs exit X -> entry Y, the cap Y -> X
+            const int y = cutVertex(cur, prev);
+            newFaceVerts_.push_back(y);
+            if (pendingExit >= 0) {
+              capNext_[y - firstCut_] = pendingExit;
+              pendingExit = -1;
+            } else {
+              firstEntry = y;
+            }
+          }
         }
+        if (curIn) newFaceVerts_.push_back(remap_[cur]);
+        prev = cur;
+        prevIn = curIn;
       }
-      // The face now runs exit X -> entry Y along the plane; the cap (outward
-      // normal n, counter-clockwise from outside) runs Y -> X.
-      const int ne = static_cast<int>(events_.size());
-      for (int q = 0; q < ne; ++q)
-        if (events_[q][0] == 1 && events_[(q + 1) % ne][0] == -1)
-          capNext_.push_back({events_[(q + 1) % ne][1], events_[q][1]});
+      if (pendingExit >= 0 && firstEntry >= 0) capNext_[firstEntry - firstCut_] = pendingExit;
       if (newFaceVerts_.size() - before < 3) {
         newFaceVerts_.resize(before);
         continue;
       }
       newSource_.push_back(faceSource_[f]);
-      newPlanes_.push_back(planes_[f]);
+      newPlane_.push_back(facePlane_[f]);
       newStart_.push_back(static_cast<int>(newFaceVerts_.size()));
     }
-    // Faces whose clipped polygon degenerated dropped out above; the cap
-    // edges still close into loops (every cut vertex is the entry of one
-    // face and the exit of another). Walk them.
-    capUsed_.assign(capNext_.size(), 0);
-    for (std::size_t s = 0; s < capNext_.size(); ++s) {
-      if (capUsed_[s]) continue;
+    // The cap: walk the loops of cut vertices (one loop unless rounding made
+    // the cut region pinch; each loop is then a face of its own).
+    const int plane = static_cast<int>(normals_.size());
+    normals_.push_back(n);
+    const int nc = static_cast<int>(capNext_.size());
+    capUsed_.assign(nc, 0);
+    for (int s = 0; s < nc; ++s) {
+      if (capUsed_[s] || capNext_[s] < 0) continue;
       const std::size_t before = newFaceVerts_.size();
-      std::size_t cur = s;
-      for (std::size_t guard = 0; guard <= capNext_.size(); ++guard) {
-        capUsed_[cur] = 1;
-        newFaceVerts_.push_back(capNext_[cur][0]);
-        const int to = capNext_[cur][1];
-        std::size_t next = capNext_.size();
-        for (std::size_t q = 0; q < capNext_.size(); ++q)
-          if (!capUsed_[q] && capNext_[q][0] == to) {
-            next = q;
-            break;
-          }
-        if (next == capNext_.size()) break;
-        cur = next;
+      int v = s;
+      while (v >= 0 && !capUsed_[v]) {
+        capUsed_[v] = 1;
+        newFaceVerts_.push_back(firstCut_ + v);
+        v = capNext_[v] < 0 ? -1 : capNext_[v] - firstCut_;
       }
       if (newFaceVerts_.size() - before < 3) {
         newFaceVerts_.resize(before);
         continue;
       }
       newSource_.push_back(source);
-      newPlanes_.push_back({n, c});
+      newPlane_.push_back(plane);
       newStart_.push_back(static_cast<int>(newFaceVerts_.size()));
     }
     verts_.swap(newVerts_);
     faceVerts_.swap(newFaceVerts_);
     faceStart_.swap(newStart_);
     faceSource_.swap(newSource_);
-    planes_.swap(newPlanes_);
-    if (faceSource_.size() < 4) {  // degenerated to nothing
-      faceSource_.clear();
-      faceStart_.assign(1, 0);
-      faceVerts_.clear();
-      verts_.clear();
-    }
+    facePlane_.swap(newPlane_);
+    if (faceSource_.size() < 4) clear();  // degenerated to nothing
     return true;
   }
 
@@ -234,8 +219,8 @@ class ConvexCell {
     volume = 0;
     Eigen::Vector3d moment = Eigen::Vector3d::Zero();
     const int nf = static_cast<int>(faceSource_.size());
-    faceArea.assign(nf, 0.0);
-    // Reference point inside the cell keeps the tetrahedra well conditioned.
+    faceArea.resize(nf);
+    // A reference point inside the cell keeps the tetrahedra well conditioned.
     Eigen::Vector3d ref = Eigen::Vector3d::Zero();
     for (const auto& v : verts_) ref += v;
     if (!verts_.empty()) ref /= static_cast<double>(verts_.size());
@@ -243,16 +228,18 @@ class ConvexCell {
       const int b = faceStart_[f], e = faceStart_[f + 1];
       const Eigen::Vector3d p0 = verts_[faceVerts_[b]] - ref;
       Eigen::Vector3d areaVector = Eigen::Vector3d::Zero();
-      for (int k = b + 1; k + 1 < e; ++k) {
-        const Eigen::Vector3d p1 = verts_[faceVerts_[k]] - ref, p2 = verts_[faceVerts_[k + 1]] - ref;
+      Eigen::Vector3d p1 = verts_[faceVerts_[b + 1]] - ref;
+      for (int k = b + 2; k < e; ++k) {
+        const Eigen::Vector3d p2 = verts_[faceVerts_[k]] - ref;
         const Eigen::Vector3d cr = (p1 - p0).cross(p2 - p0);
         areaVector += cr;
         const double v6 = p0.dot(p1.cross(p2));
         volume += v6;
         moment += v6 * (p0 + p1 + p2);
+        p1 = p2;
       }
-      faceArea[f] = 0.5 * areaVector.dot(planes_[f].n) / planes_[f].n.norm();
-      if (faceArea[f] < 0) faceArea[f] = 0;  // rounding on a sliver
+      const Eigen::Vector3d& n = normals_[facePlane_[f]];
+      faceArea[f] = std::max(0.0, 0.5 * areaVector.dot(n) / n.norm());  // 0 for a rounding sliver
     }
     if (volume > 0) {
       centroid = ref + moment / (4.0 * volume);
@@ -267,17 +254,36 @@ class ConvexCell {
   int faceSource(int f) const { return faceSource_[f]; }
 
  private:
-  std::vector<Eigen::Vector3d> verts_, newVerts_;
-  std::vector<int> faceStart_, faceVerts_, faceSource_, newStart_, newFaceVerts_, newSource_;
-  std::vector<Plane> planes_, newPlanes_;
-  std::vector<double> side_;
-  std::vector<int> remap_;
-  std::vector<std::array<int, 3>> cutEdges_;
-  std::vector<std::array<int, 2>> capNext_;
-  std::vector<char> capUsed_;
-  std::vector<std::array<int, 2>> events_;
-};
+  void clear() {
+    faceSource_.clear();
+    facePlane_.clear();
+    faceStart_.assign(1, 0);
+    faceVerts_.clear();
+    verts_.clear();
+  }
 
+  // The vertex where edge (in, out) crosses the plane, computed from its
+  // inside endpoint whichever face asks first, so both faces share it.
+  int cutVertex(int in, int out) {
+    const int nc = static_cast<int>(cutEdges_.size());
+    for (int q = 0; q < nc; ++q)
+      if (cutEdges_[q][0] == in && cutEdges_[q][1] == out) return firstCut_ + q;
+    const double t = side_[in] / (side_[in] - side_[out]);
+    newVerts_.push_back(verts_[in] + t * (verts_[out] - verts_[in]));
+    cutEdges_.push_back({in, out});
+    capNext_.push_back(-1);
+    return firstCut_ + nc;
+  }
+
+  std::vector<Eigen::Vector3d> verts_, newVerts_, normals_;
+  std::vector<int> faceStart_, faceVerts_, faceSource_, facePlane_;
+  std::vector<int> newStart_, newFaceVerts_, newSource_, newPlane_;
+  std::vector<double> side_;
+  std::vector<int> remap_, capNext_;
+  std::vector<std::array<int, 2>> cutEdges_;
+  std::vector<char> capUsed_;
+  int firstCut_ = 0;
+};
 
 struct CellScratch {
   ConvexCell cell;
@@ -439,25 +445,54 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
       ++vertices;
     }
     pd.hiddenSites = n - vertices;
-    if (vertices == 1) {
-      // No edges: the lone vertex owns Ω.
-    }
-    for (auto e = rt.finite_edges_begin(); e != rt.finite_edges_end(); ++e) {
-      ++pd.neighbourStart[e->first->vertex(e->second)->info() + 1];
-      ++pd.neighbourStart[e->first->vertex(e->third)->info() + 1];
-    }
-    for (int i = 0; i < n; ++i) pd.neighbourStart[i + 1] += pd.neighbourStart[i];
-    pd.neighbour.resize(pd.neighbourStart[n]);
-    std::vector<int> fill(pd.neighbourStart.begin(), pd.neighbourStart.end() - 1);
-    for (auto e = rt.finite_edges_begin(); e != rt.finite_edges_end(); ++e) {
-      const int a = e->first->vertex(e->second)->info(), b = e->first->vertex(e->third)->info();
-      pd.neighbour[fill[a]++] = b;
-      pd.neighbour[fill[b]++] = a;
+    if (rt.dimension() == 3) {
+      // Every finite edge lies in a finite cell: collect the 3 edges of each
+      // vertex in each finite cell, then sort and deduplicate per vertex. Much
+      // cheaper than CGAL's edge iterator, which circulates around each edge.
+      std::vector<int> start(n + 1, 0);
+      for (auto c = rt.finite_cells_begin(); c != rt.finite_cells_end(); ++c)
+        for (int q = 0; q < 4; ++q) start[c->vertex(q)->info() + 1] += 3;
+      for (int i = 0; i < n; ++i) start[i + 1] += start[i];
+      std::vector<int> candidates(start[n]);
+      std::vector<int> fill(start.begin(), start.end() - 1);
+      for (auto c = rt.finite_cells_begin(); c != rt.finite_cells_end(); ++c) {
+        const int v[4] = {c->vertex(0)->info(), c->vertex(1)->info(), c->vertex(2)->info(), c->vertex(3)->info()};
+        for (int q = 0; q < 4; ++q)
+          for (int r = 0; r < 4; ++r)
+            if (r != q) candidates[fill[v[q]]++] = v[r];
+      }
+      std::vector<int> degree(n + 1, 0);
+      tbb::parallel_for(tbb::blocked_range<int>(0, n, 512), [&](const tbb::blocked_range<int>& range) {
+        for (int i = range.begin(); i != range.end(); ++i) {
+          auto b = candidates.begin() + start[i], e = candidates.begin() + start[i + 1];
+          std::sort(b, e);
+          degree[i + 1] = static_cast<int>(std::unique(b, e) - b);
+        }
+      });
+      for (int i = 0; i < n; ++i) pd.neighbourStart[i + 1] = pd.neighbourStart[i] + degree[i + 1];
+      pd.neighbour.resize(pd.neighbourStart[n]);
+      tbb::parallel_for(0, n, [&](int i) {
+        std::copy_n(candidates.begin() + start[i], degree[i + 1], pd.neighbour.begin() + pd.neighbourStart[i]);
+      });
+    } else {
+      // Fewer than 4 affinely independent sites.
+      for (auto e = rt.finite_edges_begin(); e != rt.finite_edges_end(); ++e) {
+        ++pd.neighbourStart[e->first->vertex(e->second)->info() + 1];
+        ++pd.neighbourStart[e->first->vertex(e->third)->info() + 1];
+      }
+      for (int i = 0; i < n; ++i) pd.neighbourStart[i + 1] += pd.neighbourStart[i];
+      pd.neighbour.resize(pd.neighbourStart[n]);
+      std::vector<int> fill(pd.neighbourStart.begin(), pd.neighbourStart.end() - 1);
+      for (auto e = rt.finite_edges_begin(); e != rt.finite_edges_end(); ++e) {
+        const int a = e->first->vertex(e->second)->info(), b = e->first->vertex(e->third)->info();
+        pd.neighbour[fill[a]++] = b;
+        pd.neighbour[fill[b]++] = a;
+      }
+      tbb::parallel_for(0, n, [&](int i) {
+        std::sort(pd.neighbour.begin() + pd.neighbourStart[i], pd.neighbour.begin() + pd.neighbourStart[i + 1]);
+      });
     }
   }
-  tbb::parallel_for(0, n, [&](int i) {
-    std::sort(pd.neighbour.begin() + pd.neighbourStart[i], pd.neighbour.begin() + pd.neighbourStart[i + 1]);
-  });
   pd.facetArea.assign(pd.neighbour.size(), 0.0);
   pd.triangulationSeconds = secondsSince(t0);
 
