@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <utility>
 
@@ -82,6 +83,54 @@ GeodesicSphere geodesicSphere(int subdivisions) {
 // identically for both faces that share the edge. Coordinates are local to the
 // site (x − y_i) for accuracy.
 
+// A growable array of trivially copyable values without the per-element
+// initialisation and out-of-line growth of std::vector: the clipper's inner
+// loops push a few hundred values per clip, millions of times.
+template <class T>
+class PodBuffer {
+ public:
+  int size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  void clear() { size_ = 0; }
+  void reserve(int capacity) {
+    if (capacity > capacity_) grow(capacity);
+  }
+  void resize(int n) {
+    reserve(n);
+    size_ = n;
+  }
+  void push_back(const T& v) {
+    if (size_ == capacity_) grow(2 * capacity_ + 16);
+    data_[size_++] = v;
+  }
+  template <class... A>
+  void emplace_back(A&&... a) {
+    push_back(T(std::forward<A>(a)...));
+  }
+  T& operator[](int i) { return data_[i]; }
+  const T& operator[](int i) const { return data_[i]; }
+  T& back() { return data_[size_ - 1]; }
+  T* begin() { return data_.get(); }
+  T* end() { return data_.get() + size_; }
+  const T* begin() const { return data_.get(); }
+  const T* end() const { return data_.get() + size_; }
+  void swap(PodBuffer& o) {
+    std::swap(data_, o.data_);
+    std::swap(size_, o.size_);
+    std::swap(capacity_, o.capacity_);
+  }
+
+ private:
+  __attribute__((noinline)) void grow(int capacity) {
+    std::unique_ptr<T[]> d(new T[capacity]);
+    std::copy(data_.get(), data_.get() + size_, d.get());
+    data_ = std::move(d);
+    capacity_ = capacity;
+  }
+  std::unique_ptr<T[]> data_;
+  int size_ = 0, capacity_ = 0;
+};
+
 class ConvexCell {
  public:
   // The box [lo, hi] (local coordinates); its faces get sources -1 .. -6.
@@ -92,7 +141,8 @@ class ConvexCell {
     // Faces counter-clockwise seen from outside.
     static const int faces[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
                                     {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
-    faceStart_.assign(1, 0);
+    faceStart_.clear();
+    faceStart_.push_back(0);
     faceVerts_.clear();
     faceSource_.clear();
     facePlane_.clear();
@@ -109,7 +159,7 @@ class ConvexCell {
   }
 
   bool empty() const { return faceSource_.empty(); }
-  const std::vector<Eigen::Vector3d>& vertices() const { return verts_; }
+  const PodBuffer<Eigen::Vector3d>& vertices() const { return verts_; }
 
   // Keeps the part with n · x <= c. Returns false if the plane does not cut.
   bool clip(const Eigen::Vector3d& n, double c, int source) {
@@ -140,20 +190,21 @@ class ConvexCell {
     firstCut_ = static_cast<int>(newVerts_.size());
     cutEdges_.clear();
     capNext_.clear();
-    newStart_.assign(1, 0);
+    newStart_.clear();
+    newStart_.push_back(0);
     newFaceVerts_.clear();
     newSource_.clear();
     newPlane_.clear();
     const int nf = static_cast<int>(faceSource_.size());
     for (int f = 0; f < nf; ++f) {
       const int b = faceStart_[f], e = faceStart_[f + 1];
-      const std::size_t before = newFaceVerts_.size();
+      const int before = newFaceVerts_.size();
       int prev = faceVerts_[e - 1];
-      bool prevIn = side_[prev] <= 0;
+      bool prevIn = remap_[prev] >= 0;
       int pendingExit = -1, firstEntry = -1;
       for (int k = b; k < e; ++k) {
         const int cur = faceVerts_[k];
-        const bool curIn = side_[cur] <= 0;
+        const bool curIn = remap_[cur] >= 0;
         if (prevIn != curIn) {
           if (prevIn) {  // leaving the half-space
             pendingExit = cutVertex(prev, cur);
@@ -187,10 +238,11 @@ class ConvexCell {
     const int plane = static_cast<int>(normals_.size());
     normals_.push_back(n);
     const int nc = static_cast<int>(capNext_.size());
-    capUsed_.assign(nc, 0);
+    capUsed_.resize(nc);
+    std::fill(capUsed_.begin(), capUsed_.end(), 0);
     for (int s = 0; s < nc; ++s) {
       if (capUsed_[s] || capNext_[s] < 0) continue;
-      const std::size_t before = newFaceVerts_.size();
+      const int before = newFaceVerts_.size();
       int v = s;
       while (v >= 0 && !capUsed_[v]) {
         capUsed_[v] = 1;
@@ -257,7 +309,8 @@ class ConvexCell {
   void clear() {
     faceSource_.clear();
     facePlane_.clear();
-    faceStart_.assign(1, 0);
+    faceStart_.clear();
+    faceStart_.push_back(0);
     faceVerts_.clear();
     verts_.clear();
   }
@@ -275,13 +328,13 @@ class ConvexCell {
     return firstCut_ + nc;
   }
 
-  std::vector<Eigen::Vector3d> verts_, newVerts_, normals_;
-  std::vector<int> faceStart_, faceVerts_, faceSource_, facePlane_;
-  std::vector<int> newStart_, newFaceVerts_, newSource_, newPlane_;
-  std::vector<double> side_;
-  std::vector<int> remap_, capNext_;
-  std::vector<std::array<int, 2>> cutEdges_;
-  std::vector<char> capUsed_;
+  PodBuffer<Eigen::Vector3d> verts_, newVerts_, normals_;
+  PodBuffer<int> faceStart_, faceVerts_, faceSource_, facePlane_;
+  PodBuffer<int> newStart_, newFaceVerts_, newSource_, newPlane_;
+  PodBuffer<double> side_;
+  PodBuffer<int> remap_, capNext_;
+  PodBuffer<std::array<int, 2>> cutEdges_;
+  PodBuffer<char> capUsed_;
   int firstCut_ = 0;
 };
 
