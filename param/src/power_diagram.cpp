@@ -156,7 +156,11 @@ class ConvexCell {
       n[f / 2] = (f % 2) ? 1 : -1;
       normals_.push_back(n);
     }
+    updateRadius();
   }
+
+  /// max |v|² over the vertices: a plane n·x <= c with c >= |n|·R cannot cut.
+  double radius2() const { return radius2_; }
 
   bool empty() const { return faceSource_.empty(); }
   const PodBuffer<Eigen::Vector3d>& vertices() const { return verts_; }
@@ -263,6 +267,7 @@ class ConvexCell {
     faceSource_.swap(newSource_);
     facePlane_.swap(newPlane_);
     if (faceSource_.size() < 4) clear();  // degenerated to nothing
+    updateRadius();
     return true;
   }
 
@@ -306,6 +311,10 @@ class ConvexCell {
   int faceSource(int f) const { return faceSource_[f]; }
 
  private:
+  void updateRadius() {
+    radius2_ = 0;
+    for (const auto& v : verts_) radius2_ = std::max(radius2_, v.squaredNorm());
+  }
   void clear() {
     faceSource_.clear();
     facePlane_.clear();
@@ -336,6 +345,7 @@ class ConvexCell {
   PodBuffer<std::array<int, 2>> cutEdges_;
   PodBuffer<char> capUsed_;
   int firstCut_ = 0;
+  double radius2_ = 0;
 };
 
 struct CellScratch {
@@ -562,10 +572,14 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
       const Eigen::Vector3d y = points.row(i).transpose();
       cell.initBox(domain.boundingBox().min() - y, domain.boundingBox().max() - y);
       const int b = pd.neighbourStart[i], e = pd.neighbourStart[i + 1];
+      // Every regular-triangulation neighbour bounds the unclipped cell, so
+      // nearly every plane cuts; the radius test skips the rest in O(1).
       for (int k = b; k < e && !cell.empty(); ++k) {
         const int j = pd.neighbour[k];
         const Eigen::Vector3d d = points.row(j).transpose() - y;
-        cell.clip(d, 0.5 * (d.squaredNorm() - (weights[j] - weights[i])), k - b);
+        const double c = 0.5 * (d.squaredNorm() - (weights[j] - weights[i]));
+        if (c > 0 && c * c >= cell.radius2() * d.squaredNorm()) continue;
+        cell.clip(d, c, k - b);
       }
       if (ball) {
         int hint = -1;
