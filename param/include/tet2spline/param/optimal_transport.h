@@ -10,21 +10,36 @@
 /// The Kantorovich dual is concave in ψ with gradient g_i = ν_i − |Lag_i| and
 /// Hessian H_ij = |Lag_i ∩ Lag_j| / (2|y_i − y_j|) (j ≠ i), H_ii = −Σ_j H_ij.
 /// `solveOptimalTransport` finds ψ with |Lag_i(ψ)| = ν_i by the damped Newton
-/// method of KMT: direction H d = −g (the constant null space removed by fixing
-/// d_0 = 0), step 2^-k for the least k such that every cell keeps at least
+/// method of KMT: direction H d = −g (the constant null space removed by
+/// solving for a mean-free g, or by fixing d_0 = 0 for the Cholesky solvers),
+/// step 2^-k for the least k such that every cell keeps at least
 /// ε0 = ½ min(min ν, min |Lag(ψ0)|) volume and ‖g‖ drops by (1 − 2^-(k+1)).
+/// The search tries 2^-k from twice the last accepted step down (not from 1
+/// every time): one diagram per damped iteration instead of k + 1, and the
+/// accepted steps stay above half of KMT's uniform lower bound.
 /// It converges globally whenever every cell of the start ψ0 is non-empty.
 ///
 /// Start ψ0 (default `ScaledVoronoi`): ψ_i = (1 − λ)|y_i − c|², c the centre of
-/// Ω, with the largest λ > 0 such that every z_i = c + λ(y_i − c) lies in Ω.
+/// Ω, with the largest λ > 0 such that every z_i = c + λ(y_i − c) lies in the
+/// cube, resp. in the closed unit ball (⊂ Ω).
 /// Then |x − y_i|² − ψ_i = |x − z_i|²/λ + (1 − 1/λ)|x − c|², the last term
-/// the same for every i, so Lag_i(ψ0) is the Voronoi cell of z_i in Ω. The z_i are distinct points of Ω, so every cell
-/// contains its z_i and is non-empty (the hypothesis of KMT), even for points
-/// y_i outside Ω, and the cells start much closer to equal volumes than the
-/// Voronoi cells of the y_i when the points cluster (ψ0 = 0 is `Zero`).
+/// the same for every i, so Lag_i(ψ0) is the Voronoi cell of z_i in Ω. The
+/// z_i are distinct points of Ω, so every cell contains its z_i and is
+/// non-empty (the hypothesis of KMT), even for points y_i outside Ω, and when
+/// the points cluster the cells start closer to equal volumes than the
+/// Voronoi cells of the y_i (ψ0 = 0 is `Zero`).
 ///
-/// Linear solver (measured, ot_benchmark on 2 cores, N = 100k points in a ball
-/// of radius 0.45 in the cube): see `OtLinearSolver`.
+/// Linear solver, chosen by measurement (tet2spline_ot_bench, N = 50k points
+/// in a ball of radius 0.45 in the cube, 9 Newton iterations, 2 cores that
+/// other jobs shared at load ~6, total linear-solve seconds):
+///   Jacobi-preconditioned CG (TBB mat-vec), rel. residual 1e-3   5.4 s
+///   Eigen IncompleteCholesky + CG, rel. residual 1e-3            15.1 s
+///   CHOLMOD supernodal Cholesky (exact), analysed each iteration 133.6 s
+/// The 3D Laguerre adjacency fills in badly under Cholesky and its pattern
+/// changes every iteration; IC's triangular solves are sequential. Jacobi-CG
+/// on the singular L = −H with mean-free right-hand side (instead of a
+/// grounded ψ_0) then halved the CG iterations again (~50–60 at 10k, see
+/// the benchmark output). Hence the default `ConjugateGradient`.
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
@@ -39,10 +54,11 @@ namespace tet2spline {
 
 enum class OtLinearSolver {
   /// Conjugate gradients (parallel matrix-vector products) preconditioned by
-  /// the diagonal, stopped at a relative residual `cgTolerance`: inexact
-  /// Newton. Default: see the numbers in the .cpp header and README.
+  /// the diagonal on the singular system with mean-free right-hand side,
+  /// stopped at a relative residual `cgTolerance`: inexact Newton. Default.
   ConjugateGradient,
-  /// Eigen's incomplete Cholesky preconditioner (sequential) with CG.
+  /// Eigen's incomplete Cholesky preconditioner (sequential) with CG, on the
+  /// system grounded at ψ_0 (for comparison).
   IncompleteCholeskyCG,
   /// Supernodal sparse Cholesky (CHOLMOD), exact Newton direction.
   Cholmod,
@@ -59,7 +75,10 @@ struct OptimalTransportOptions {
   int maxStepHalvings = 40;            ///< line search gives up below step 2^-maxStepHalvings
   OtStart start = OtStart::ScaledVoronoi;
   OtLinearSolver linearSolver = OtLinearSolver::ConjugateGradient;
-  double cgTolerance = 1e-3;           ///< relative residual of the inexact Newton direction
+  /// Relative residual of the inexact Newton direction. Fixed, not adaptive:
+  /// a forcing term 0.1·error stalled the damped phase of the benchmark
+  /// (the residual pushed cells near ε0 below it).
+  double cgTolerance = 1e-3;
   int cgMaxIterations = 20000;
   /// Points at exactly the same position share one cell (their masses are
   /// added; each gets the cell's ψ and centroid and a volume share in
@@ -81,7 +100,7 @@ struct OtIterationStats {
 };
 
 struct OptimalTransportResult {
-  Eigen::VectorXd weights;             ///< ψ, #points (ψ of the first point fixed by the start)
+  Eigen::VectorXd weights;             ///< ψ, #points (defined up to an additive constant)
   Eigen::MatrixX3d centroids;          ///< Laguerre cell centroids, #points × 3
   Eigen::VectorXd cellVolumes;         ///< |Lag_i|, #points
   Eigen::VectorXd masses;              ///< ν scaled to Σν = |Ω|, #points

@@ -32,7 +32,9 @@ namespace tet2spline {
 /// uses, so masses balance exactly. Each Laguerre cell is
 /// clipped only by the tangent planes that actually cut it, found by a
 /// hill-climb over the geodesic sphere, so the cost grows with the cells on
-/// the boundary, not with the number of planes.
+/// the boundary, not with the number of planes — as long as boundary cells
+/// are not much larger than the plane spacing (0.018 at level 6, i.e. from
+/// about 50k points on). With few points, pick a coarser level.
 class Domain {
  public:
   enum class Kind { Cube, Ball };
