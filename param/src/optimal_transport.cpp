@@ -96,7 +96,8 @@ int jacobiCg(const SpMat& L, const Eigen::VectorXd& b, Eigen::VectorXd& x, doubl
     });
   };
   auto dot = [&](const Eigen::VectorXd& a, const Eigen::VectorXd& c) {
-    return tbb::parallel_reduce(
+    // Deterministic: the same input gives bit-identical results on any run.
+    return tbb::parallel_deterministic_reduce(
         tbb::blocked_range<int>(0, n, 8192), 0.0,
         [&](const tbb::blocked_range<int>& r, double s) {
           for (int i = r.begin(); i != r.end(); ++i) s += a[i] * c[i];
