@@ -4,6 +4,18 @@
 // solved to a max relative mass error of 1e-6. Prints iterations, the per-
 // iteration split (triangulation, clipping, assembly, linear solve), total
 // seconds and peak RSS.
+//
+// Measured 2026-11-22 (commit after "deterministic CG reductions"), 2 cores
+// shared with five other builds (load 4–9, so the solver mostly got one
+// core: user ≈ wall at 181k). Medians of 3 runs, cube domain, Jacobi-CG:
+//   N      it  diagrams  triang.  clipping  assembly  solve   total   peak RSS
+//   10k     8     10      0.68 s   0.75 s    0.04 s   0.07 s   1.9 s    26 MiB
+//   100k   10     12     16.4 s   15.8 s     1.1 s    4.2 s   40.9 s   200 MiB
+//   181k   10     12     19.1 s   20.5 s     1.8 s    6.3 s   51.7 s   331 MiB
+// (181k CPU time 49 s user.) Per diagram at 181k: ~1.3 s regular
+// triangulation (sequential) + ~1.5 s clipping. Target was 15 s: not met.
+// Ball domain (level 6), same cloud centred at the origin, 100k: 6 iterations,
+// 16.4 s.
 #include <sys/resource.h>
 
 #include <chrono>
