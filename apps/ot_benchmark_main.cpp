@@ -5,7 +5,7 @@
 // iteration split (triangulation, clipping, assembly, linear solve), total
 // seconds and peak RSS.
 //
-// Measured 2026-11-22 (commit after "deterministic CG reductions"), 2 cores
+// Measured 2026-11-22 (build of commit 1abe7a8), 2 cores
 // shared with five other builds (load 4–9, so the solver mostly got one
 // core: user ≈ wall at 181k). Medians of 3 runs, cube domain, Jacobi-CG:
 //   N      it  diagrams  triang.  clipping  assembly  solve   total   peak RSS
