@@ -1,0 +1,133 @@
+// tet2spline_ot_bench: semi-discrete OT benchmark (design.md, "Semi-discrete
+// optimal transport"). N points uniform in the ball of radius 0.45 centred in
+// the unit cube (fixed seed), masses uniform in [0.5, 1.5], domain the cube,
+// solved to a max relative mass error of 1e-6. Prints iterations, the per-
+// iteration split (triangulation, clipping, assembly, linear solve), total
+// seconds and peak RSS.
+//
+// Measured 2026-11-22 (build of commit 1abe7a8), 2 cores
+// shared with five other builds (load 4–9, so the solver mostly got one
+// core: user ≈ wall at 181k). Medians of 3 runs, cube domain, Jacobi-CG:
+//   N      it  diagrams  triang.  clipping  assembly  solve   total   peak RSS
+//   10k     8     10      0.68 s   0.75 s    0.04 s   0.07 s   1.9 s    26 MiB
+//   100k   10     12     16.4 s   15.8 s     1.1 s    4.2 s   40.9 s   200 MiB
+//   181k   10     12     19.1 s   20.5 s     1.8 s    6.3 s   51.7 s   331 MiB
+// (181k CPU time 49 s user.) Per diagram at 181k: ~1.3 s regular
+// triangulation (sequential) + ~1.5 s clipping. Target was 15 s: not met.
+// Ball domain (level 6), same cloud centred at the origin, 100k: 6 iterations,
+// 16.4 s.
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "tet2spline/param/optimal_transport.h"
+
+using namespace tet2spline;
+
+namespace {
+void usage() {
+  std::fprintf(stderr,
+               "usage: tet2spline_ot_bench [--n N[,N...]] [--solver cg|ic|cholmod] [--cg-tol T] [--start scaled|zero]\n"
+               "                           [--domain cube|ball] [--seed S]\n"
+               "  default --n 10000,100000,181000\n");
+}
+double peakRssMiB() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss / 1024.0;  // kB on Linux
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<int> sizes = {10000, 100000, 181000};
+  OptimalTransportOptions options;
+  bool ball = false;
+  unsigned seed = 20260101;
+  for (int a = 1; a < argc; ++a) {
+    const std::string arg = argv[a];
+    const char* value = a + 1 < argc ? argv[a + 1] : nullptr;
+    if (arg == "--n" && value) {
+      sizes.clear();
+      std::string list = value;
+      for (std::size_t p = 0; p < list.size();) {
+        std::size_t q = list.find(',', p);
+        if (q == std::string::npos) q = list.size();
+        sizes.push_back(std::atoi(list.substr(p, q - p).c_str()));
+        p = q + 1;
+      }
+      ++a;
+    } else if (arg == "--solver" && value) {
+      const std::string s = value;
+      options.linearSolver = s == "cholmod" ? OtLinearSolver::Cholmod
+                             : s == "ic"    ? OtLinearSolver::IncompleteCholeskyCG
+                                            : OtLinearSolver::ConjugateGradient;
+      ++a;
+    } else if (arg == "--cg-tol" && value) {
+      options.cgTolerance = std::atof(value);
+      ++a;
+    } else if (arg == "--start" && value) {
+      options.start = std::string(value) == "zero" ? OtStart::Zero : OtStart::ScaledVoronoi;
+      ++a;
+    } else if (arg == "--domain" && value) {
+      ball = std::string(value) == "ball";
+      ++a;
+    } else if (arg == "--seed" && value) {
+      seed = static_cast<unsigned>(std::atoi(value));
+      ++a;
+    } else {
+      usage();
+      return 2;
+    }
+  }
+  const Domain domain = ball ? Domain::unitBall() : Domain::unitCube();
+  const Eigen::Vector3d centre = domain.center();
+  int status = 0;
+  for (int n : sizes) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> unit(-1, 1), mass(0.5, 1.5);
+    Eigen::MatrixX3d y(n, 3);
+    for (int i = 0; i < n; ++i) {
+      Eigen::Vector3d p;
+      do p = Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+      while (p.squaredNorm() > 1);
+      y.row(i) = (centre + 0.45 * p).transpose();
+    }
+    Eigen::VectorXd nu(n);
+    for (int i = 0; i < n; ++i) nu[i] = mass(rng);
+
+    const auto t0 = std::chrono::steady_clock::now();
+    const OptimalTransportResult r = solveOptimalTransport(y, nu, domain, options);
+    const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    std::printf("N = %d  %s  iterations %d  max rel. mass error %.3g\n", n, r.status.ok ? "converged" : "FAILED",
+                r.iterations, r.maxRelativeMassError);
+    if (!r.status.ok) {
+      std::printf("  %s\n", r.status.message.c_str());
+      status = 1;
+    }
+    std::printf("  %4s %9s %5s %6s %8s %8s %8s %8s %10s\n", "it", "step", "evals", "cg", "triang", "clip", "assemble",
+                "solve", "rel.err");
+    double sums[4] = {0, 0, 0, 0};
+    for (std::size_t k = 0; k < r.iterationStats.size(); ++k) {
+      const OtIterationStats& s = r.iterationStats[k];
+      std::printf("  %4zu %9.3g %5d %6d %8.3f %8.3f %8.3f %8.3f %10.3g\n", k + 1, s.stepSize, s.evaluations,
+                  s.linearIterations, s.triangulationSeconds, s.clippingSeconds, s.assemblySeconds,
+                  s.linearSolveSeconds, s.maxRelativeMassError);
+      sums[0] += s.triangulationSeconds;
+      sums[1] += s.clippingSeconds;
+      sums[2] += s.assemblySeconds;
+      sums[3] += s.linearSolveSeconds;
+    }
+    std::printf("  start %.3f s  triangulation %.3f s  clipping %.3f s  assembly %.3f s  linear solve %.3f s\n",
+                r.startSeconds, sums[0], sums[1], sums[2], sums[3]);
+    std::printf("  TOTAL %.3f s  peak RSS %.0f MiB\n", total, peakRssMiB());
+    std::fflush(stdout);
+  }
+  return status;
+}

@@ -1,0 +1,131 @@
+#pragma once
+/// Semi-discrete optimal transport from the Lebesgue measure of Ω (unit cube
+/// or unit ball) to N weighted points (design.md, "Semi-discrete optimal
+/// transport"; Su et al., CAD 2016, §4).
+///
+/// Notation of the paper and of Kitagawa, Mérigot, Thibert, "Convergence of a
+/// Newton algorithm for semi-discrete optimal transport", JEMS 2019: points
+/// y_i, masses ν_i (scaled so that Σν = |Ω|), weights ψ_i, Laguerre cells
+///   Lag_i(ψ) = { x ∈ Ω : |x − y_i|² − ψ_i ≤ |x − y_j|² − ψ_j ∀j }.
+/// The Kantorovich dual is concave in ψ with gradient g_i = ν_i − |Lag_i| and
+/// Hessian H_ij = |Lag_i ∩ Lag_j| / (2|y_i − y_j|) (j ≠ i), H_ii = −Σ_j H_ij.
+/// `solveOptimalTransport` finds ψ with |Lag_i(ψ)| = ν_i by the damped Newton
+/// method of KMT: direction H d = −g (the constant null space removed by
+/// solving for a mean-free g, or by fixing d_0 = 0 for the Cholesky solvers),
+/// step 2^-k for the least k such that every cell keeps at least
+/// ε0 = ½ min(min ν, min |Lag(ψ0)|) volume and ‖g‖ drops by (1 − 2^-(k+1)).
+/// The search tries 2^-k from twice the last accepted step down (not from 1
+/// every time): one diagram per damped iteration instead of k + 1, and the
+/// accepted steps stay above half of KMT's uniform lower bound.
+/// It converges globally whenever every cell of the start ψ0 is non-empty.
+///
+/// Start ψ0 (default `ScaledVoronoi`): ψ_i = (1 − λ)|y_i − c|², c the centre of
+/// Ω, with the largest λ > 0 such that every z_i = c + λ(y_i − c) lies in the
+/// cube, resp. in the closed unit ball (⊂ Ω).
+/// Then |x − y_i|² − ψ_i = |x − z_i|²/λ + (1 − 1/λ)|x − c|², the last term
+/// the same for every i, so Lag_i(ψ0) is the Voronoi cell of z_i in Ω. The
+/// z_i are distinct points of Ω, so every cell contains its z_i and is
+/// non-empty (the hypothesis of KMT), even for points y_i outside Ω, and when
+/// the points cluster the cells start closer to equal volumes than the
+/// Voronoi cells of the y_i (ψ0 = 0 is `Zero`).
+///
+/// Linear solver, chosen by measurement (tet2spline_ot_bench, N = 50k points
+/// in a ball of radius 0.45 in the cube, 9 Newton iterations, 2 cores that
+/// other jobs shared at load ~6, total linear-solve seconds):
+///   Jacobi-preconditioned CG (TBB mat-vec), rel. residual 1e-3   5.4 s
+///   Eigen IncompleteCholesky + CG, rel. residual 1e-3            15.1 s
+///   CHOLMOD supernodal Cholesky (exact), analysed each iteration 133.6 s
+/// The 3D Laguerre adjacency fills in badly under Cholesky and its pattern
+/// changes every iteration; IC's triangular solves are sequential. Jacobi-CG
+/// on the singular L = −H with mean-free right-hand side (instead of a
+/// grounded ψ_0) then halved the CG iterations again (~50–60 at 10k, see
+/// the benchmark output). Hence the default `ConjugateGradient`.
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <string>
+#include <vector>
+
+#include "tet2spline/param/error.h"
+#include "tet2spline/param/power_diagram.h"
+#include "tet2spline/param/progress.h"
+
+namespace tet2spline {
+
+enum class OtLinearSolver {
+  /// Conjugate gradients (parallel matrix-vector products) preconditioned by
+  /// the diagonal on the singular system with mean-free right-hand side,
+  /// stopped at a relative residual `cgTolerance`: inexact Newton. Default.
+  ConjugateGradient,
+  /// Eigen's incomplete Cholesky preconditioner (sequential) with CG, on the
+  /// system grounded at ψ_0 (for comparison).
+  IncompleteCholeskyCG,
+  /// Supernodal sparse Cholesky (CHOLMOD), exact Newton direction.
+  Cholmod,
+};
+
+enum class OtStart {
+  ScaledVoronoi,  ///< ψ_i = (1 − λ)|y_i − c|², see the header comment
+  Zero,           ///< ψ = 0: Voronoi cells of the y_i (empty when a y_i's cell misses Ω)
+};
+
+struct OptimalTransportOptions {
+  double maxRelativeMassError = 1e-6;  ///< stop when max_i |g_i|/ν_i is below
+  int maxNewtonIterations = 100;
+  int maxStepHalvings = 40;            ///< line search gives up below step 2^-maxStepHalvings
+  OtStart start = OtStart::ScaledVoronoi;
+  OtLinearSolver linearSolver = OtLinearSolver::ConjugateGradient;
+  /// Relative residual of the inexact Newton direction. Fixed, not adaptive:
+  /// a forcing term 0.1·error stalled the damped phase of the benchmark
+  /// (the residual pushed cells near ε0 below it).
+  double cgTolerance = 1e-3;
+  int cgMaxIterations = 20000;
+  /// Points at exactly the same position share one cell (their masses are
+  /// added; each gets the cell's ψ and centroid and a volume share in
+  /// proportion to its mass). When false, coincident points throw Error(Input).
+  bool mergeCoincidentPoints = true;
+  ProgressCallback progress = {};      ///< called once per iteration; return false to stop
+};
+
+/// What one Newton iteration cost.
+struct OtIterationStats {
+  double stepSize = 0;                 ///< accepted 2^-k
+  int evaluations = 0;                 ///< power diagrams computed in the line search
+  int linearIterations = 0;            ///< CG iterations (0 for Cholesky)
+  double triangulationSeconds = 0;     ///< regular triangulations of this iteration
+  double clippingSeconds = 0;          ///< clipping of this iteration
+  double assemblySeconds = 0;          ///< Hessian assembly
+  double linearSolveSeconds = 0;       ///< factorisation or CG
+  double maxRelativeMassError = 0;     ///< after the step
+};
+
+struct OptimalTransportResult {
+  Eigen::VectorXd weights;             ///< ψ, #points (defined up to an additive constant)
+  Eigen::MatrixX3d centroids;          ///< Laguerre cell centroids, #points × 3
+  Eigen::VectorXd cellVolumes;         ///< |Lag_i|, #points
+  Eigen::VectorXd masses;              ///< ν scaled to Σν = |Ω|, #points
+  int iterations = 0;
+  double maxRelativeMassError = 0;     ///< max_i |ν_i − |Lag_i|| / ν_i at the result
+  std::vector<double> stepSizes;       ///< per iteration
+  std::vector<OtIterationStats> iterationStats;
+  double startSeconds = 0;             ///< validation, merging and the diagram of ψ0
+  int mergedPoints = 0;                ///< points merged into a coincident one
+  Status status;                       ///< ok, or why it stopped
+};
+
+/// Solves the semi-discrete OT from Ω to points (#N × 3) with masses (#N).
+/// Pre-conditions (else Error): sizes agree and N ≥ 1 (Usage); points finite,
+/// masses finite and > 0 (Input); every Laguerre cell of the start non-empty
+/// (Input: with the default start only coincident points, if not merged, can
+/// violate it). Not converging within the iteration budget, a failed line
+/// search or a stop from the progress callback is a failed `status`.
+OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, const Eigen::VectorXd& masses,
+                                             const Domain& domain, const OptimalTransportOptions& options = {});
+
+/// The Hessian H of the Kantorovich dual at the diagram `diagram` of `points`
+/// (#N × N, symmetric, negative semi-definite, rows summing to zero):
+/// H_ij = ½(a_ij + a_ji) / (2|y_i − y_j|) with a_ij the facet area seen from
+/// cell i, H_ii = −Σ_j H_ij. Exposed for tests and diagnostics.
+Eigen::SparseMatrix<double> kantorovichHessian(const Eigen::MatrixX3d& points, const PowerDiagram& diagram);
+
+}  // namespace tet2spline

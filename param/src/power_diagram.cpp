@@ -1,0 +1,618 @@
+// Power diagrams clipped to Ω: CGAL regular triangulation for the neighbours,
+// then a compact convex-polytope clipper per cell (TBB). CGAL's triangulations
+// are GPL: this is the only file of the OT code that includes them.
+#include "tet2spline/param/power_diagram.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Regular_triangulation_3.h>
+#include <CGAL/Regular_triangulation_cell_base_3.h>
+#include <CGAL/Regular_triangulation_vertex_base_3.h>
+#include <CGAL/Triangulation_vertex_base_with_info_3.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <utility>
+
+#include "tet2spline/param/error.h"
+
+namespace tet2spline {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// ---------------------------------------------------------------------------
+// Geodesic sphere for the ball domain.
+
+struct GeodesicSphere {
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<std::array<int, 3>> triangles;  // outward oriented
+};
+
+GeodesicSphere geodesicSphere(int subdivisions) {
+  GeodesicSphere s;
+  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+  const double base[12][3] = {{-1, t, 0}, {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+                              {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+  for (const auto& b : base) s.vertices.push_back(Eigen::Vector3d(b[0], b[1], b[2]).normalized());
+  s.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8},   {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                 {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  for (int level = 0; level < subdivisions; ++level) {
+    std::map<std::pair<int, int>, int> midpoint;
+    auto mid = [&](int a, int b) {
+      auto key = std::minmax(a, b);
+      auto it = midpoint.find(key);
+      if (it != midpoint.end()) return it->second;
+      s.vertices.push_back((s.vertices[a] + s.vertices[b]).normalized());
+      const int id = static_cast<int>(s.vertices.size()) - 1;
+      midpoint.emplace(key, id);
+      return id;
+    };
+    std::vector<std::array<int, 3>> next;
+    next.reserve(s.triangles.size() * 4);
+    for (const auto& tri : s.triangles) {
+      const int a = tri[0], b = tri[1], c = tri[2];
+      const int ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+      next.push_back({a, ab, ca});
+      next.push_back({b, bc, ab});
+      next.push_back({c, ca, bc});
+      next.push_back({ab, bc, ca});
+    }
+    s.triangles = std::move(next);
+  }
+  return s;
+}
+
+// ---------------------------------------------------------------------------
+// Convex polytope clipper. Vertices are shared by index between faces and each
+// vertex is classified once per plane, so the faces stay consistent whatever
+// the rounding; new vertices on an edge are computed from its inside endpoint,
+// identically for both faces that share the edge. Coordinates are local to the
+// site (x − y_i) for accuracy.
+
+// A growable array of trivially copyable values without the per-element
+// initialisation and out-of-line growth of std::vector: the clipper's inner
+// loops push a few hundred values per clip, millions of times.
+template <class T>
+class PodBuffer {
+ public:
+  int size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  void clear() { size_ = 0; }
+  void reserve(int capacity) {
+    if (capacity > capacity_) grow(capacity);
+  }
+  void resize(int n) {
+    reserve(n);
+    size_ = n;
+  }
+  void push_back(const T& v) {
+    if (size_ == capacity_) grow(2 * capacity_ + 16);
+    data_[size_++] = v;
+  }
+  template <class... A>
+  void emplace_back(A&&... a) {
+    push_back(T(std::forward<A>(a)...));
+  }
+  T& operator[](int i) { return data_[i]; }
+  const T& operator[](int i) const { return data_[i]; }
+  T& back() { return data_[size_ - 1]; }
+  T* begin() { return data_.get(); }
+  T* end() { return data_.get() + size_; }
+  const T* begin() const { return data_.get(); }
+  const T* end() const { return data_.get() + size_; }
+  void swap(PodBuffer& o) {
+    std::swap(data_, o.data_);
+    std::swap(size_, o.size_);
+    std::swap(capacity_, o.capacity_);
+  }
+
+ private:
+  __attribute__((noinline)) void grow(int capacity) {
+    std::unique_ptr<T[]> d(new T[capacity]);
+    std::copy(data_.get(), data_.get() + size_, d.get());
+    data_ = std::move(d);
+    capacity_ = capacity;
+  }
+  std::unique_ptr<T[]> data_;
+  int size_ = 0, capacity_ = 0;
+};
+
+class ConvexCell {
+ public:
+  // The box [lo, hi] (local coordinates); its faces get sources -1 .. -6.
+  void initBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+    verts_.clear();
+    for (int k = 0; k < 8; ++k)
+      verts_.emplace_back((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z());
+    // Faces counter-clockwise seen from outside.
+    static const int faces[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                                    {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+    faceStart_.clear();
+    faceStart_.push_back(0);
+    faceVerts_.clear();
+    faceSource_.clear();
+    facePlane_.clear();
+    normals_.clear();
+    for (int f = 0; f < 6; ++f) {
+      for (int k = 0; k < 4; ++k) faceVerts_.push_back(faces[f][k]);
+      faceStart_.push_back(static_cast<int>(faceVerts_.size()));
+      faceSource_.push_back(-1 - f);
+      facePlane_.push_back(f);
+      Eigen::Vector3d n = Eigen::Vector3d::Zero();
+      n[f / 2] = (f % 2) ? 1 : -1;
+      normals_.push_back(n);
+    }
+    updateRadius();
+  }
+
+  /// max |v|² over the vertices: a plane n·x <= c with c >= |n|·R cannot cut.
+  double radius2() const { return radius2_; }
+
+  bool empty() const { return faceSource_.empty(); }
+  const PodBuffer<Eigen::Vector3d>& vertices() const { return verts_; }
+
+  // Keeps the part with n · x <= c. Returns false if the plane does not cut.
+  bool clip(const Eigen::Vector3d& n, double c, int source) {
+    const int nv = static_cast<int>(verts_.size());
+    side_.resize(nv);
+    int outside = 0;
+    for (int v = 0; v < nv; ++v) {
+      const double s = n.dot(verts_[v]) - c;
+      side_[v] = s;
+      outside += s > 0;
+    }
+    if (outside == 0) return false;
+    if (outside == nv) {
+      clear();
+      return true;
+    }
+    // Renumber the kept vertices; cut vertices follow, one per cut edge.
+    remap_.resize(nv);
+    newVerts_.clear();
+    for (int v = 0; v < nv; ++v) {
+      if (side_[v] <= 0) {
+        remap_[v] = static_cast<int>(newVerts_.size());
+        newVerts_.push_back(verts_[v]);
+      } else {
+        remap_[v] = -1;
+      }
+    }
+    firstCut_ = static_cast<int>(newVerts_.size());
+    cutEdges_.clear();
+    capNext_.clear();
+    newStart_.clear();
+    newStart_.push_back(0);
+    newFaceVerts_.clear();
+    newSource_.clear();
+    newPlane_.clear();
+    const int nf = static_cast<int>(faceSource_.size());
+    for (int f = 0; f < nf; ++f) {
+      const int b = faceStart_[f], e = faceStart_[f + 1];
+      const int before = newFaceVerts_.size();
+      int prev = faceVerts_[e - 1];
+      bool prevIn = remap_[prev] >= 0;
+      int pendingExit = -1, firstEntry = -1;
+      for (int k = b; k < e; ++k) {
+        const int cur = faceVerts_[k];
+        const bool curIn = remap_[cur] >= 0;
+        if (prevIn != curIn) {
+          if (prevIn) {  // leaving the half-space
+            pendingExit = cutVertex(prev, cur);
+            newFaceVerts_.push_back(pendingExit);
+          } else {  // entering: the face runs exit X -> entry Y, the cap Y -> X
+            const int y = cutVertex(cur, prev);
+            newFaceVerts_.push_back(y);
+            if (pendingExit >= 0) {
+              capNext_[y - firstCut_] = pendingExit;
+              pendingExit = -1;
+            } else {
+              firstEntry = y;
+            }
+          }
+        }
+        if (curIn) newFaceVerts_.push_back(remap_[cur]);
+        prev = cur;
+        prevIn = curIn;
+      }
+      if (pendingExit >= 0 && firstEntry >= 0) capNext_[firstEntry - firstCut_] = pendingExit;
+      if (newFaceVerts_.size() - before < 3) {
+        newFaceVerts_.resize(before);
+        continue;
+      }
+      newSource_.push_back(faceSource_[f]);
+      newPlane_.push_back(facePlane_[f]);
+      newStart_.push_back(static_cast<int>(newFaceVerts_.size()));
+    }
+    // The cap: walk the loops of cut vertices (one loop unless rounding made
+    // the cut region pinch; each loop is then a face of its own).
+    const int plane = static_cast<int>(normals_.size());
+    normals_.push_back(n);
+    const int nc = static_cast<int>(capNext_.size());
+    capUsed_.resize(nc);
+    std::fill(capUsed_.begin(), capUsed_.end(), 0);
+    for (int s = 0; s < nc; ++s) {
+      if (capUsed_[s] || capNext_[s] < 0) continue;
+      const int before = newFaceVerts_.size();
+      int v = s;
+      while (v >= 0 && !capUsed_[v]) {
+        capUsed_[v] = 1;
+        newFaceVerts_.push_back(firstCut_ + v);
+        v = capNext_[v] < 0 ? -1 : capNext_[v] - firstCut_;
+      }
+      if (newFaceVerts_.size() - before < 3) {
+        newFaceVerts_.resize(before);
+        continue;
+      }
+      newSource_.push_back(source);
+      newPlane_.push_back(plane);
+      newStart_.push_back(static_cast<int>(newFaceVerts_.size()));
+    }
+    verts_.swap(newVerts_);
+    faceVerts_.swap(newFaceVerts_);
+    faceStart_.swap(newStart_);
+    faceSource_.swap(newSource_);
+    facePlane_.swap(newPlane_);
+    if (faceSource_.size() < 4) clear();  // degenerated to nothing
+    updateRadius();
+    return true;
+  }
+
+  // Volume, centroid (local coordinates) and the area of every face.
+  void measure(double& volume, Eigen::Vector3d& centroid, std::vector<double>& faceArea) const {
+    volume = 0;
+    Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+    const int nf = static_cast<int>(faceSource_.size());
+    faceArea.resize(nf);
+    // A reference point inside the cell keeps the tetrahedra well conditioned.
+    Eigen::Vector3d ref = Eigen::Vector3d::Zero();
+    for (const auto& v : verts_) ref += v;
+    if (!verts_.empty()) ref /= static_cast<double>(verts_.size());
+    for (int f = 0; f < nf; ++f) {
+      const int b = faceStart_[f], e = faceStart_[f + 1];
+      const Eigen::Vector3d p0 = verts_[faceVerts_[b]] - ref;
+      Eigen::Vector3d areaVector = Eigen::Vector3d::Zero();
+      Eigen::Vector3d p1 = verts_[faceVerts_[b + 1]] - ref;
+      for (int k = b + 2; k < e; ++k) {
+        const Eigen::Vector3d p2 = verts_[faceVerts_[k]] - ref;
+        const Eigen::Vector3d cr = (p1 - p0).cross(p2 - p0);
+        areaVector += cr;
+        const double v6 = p0.dot(p1.cross(p2));
+        volume += v6;
+        moment += v6 * (p0 + p1 + p2);
+        p1 = p2;
+      }
+      const Eigen::Vector3d& n = normals_[facePlane_[f]];
+      faceArea[f] = std::max(0.0, 0.5 * areaVector.dot(n) / n.norm());  // 0 for a rounding sliver
+    }
+    if (volume > 0) {
+      centroid = ref + moment / (4.0 * volume);
+      volume /= 6.0;
+    } else {
+      volume = 0;
+      centroid = ref;
+    }
+  }
+
+  int faceCount() const { return static_cast<int>(faceSource_.size()); }
+  int faceSource(int f) const { return faceSource_[f]; }
+
+ private:
+  void updateRadius() {
+    radius2_ = 0;
+    for (const auto& v : verts_) radius2_ = std::max(radius2_, v.squaredNorm());
+  }
+  void clear() {
+    faceSource_.clear();
+    facePlane_.clear();
+    faceStart_.clear();
+    faceStart_.push_back(0);
+    faceVerts_.clear();
+    verts_.clear();
+  }
+
+  // The vertex where edge (in, out) crosses the plane, computed from its
+  // inside endpoint whichever face asks first, so both faces share it.
+  int cutVertex(int in, int out) {
+    const int nc = static_cast<int>(cutEdges_.size());
+    for (int q = 0; q < nc; ++q)
+      if (cutEdges_[q][0] == in && cutEdges_[q][1] == out) return firstCut_ + q;
+    const double t = side_[in] / (side_[in] - side_[out]);
+    newVerts_.push_back(verts_[in] + t * (verts_[out] - verts_[in]));
+    cutEdges_.push_back({in, out});
+    capNext_.push_back(-1);
+    return firstCut_ + nc;
+  }
+
+  PodBuffer<Eigen::Vector3d> verts_, newVerts_, normals_;
+  PodBuffer<int> faceStart_, faceVerts_, faceSource_, facePlane_;
+  PodBuffer<int> newStart_, newFaceVerts_, newSource_, newPlane_;
+  PodBuffer<double> side_;
+  PodBuffer<int> remap_, capNext_;
+  PodBuffer<std::array<int, 2>> cutEdges_;
+  PodBuffer<char> capUsed_;
+  int firstCut_ = 0;
+  double radius2_ = 0;
+};
+
+struct CellScratch {
+  ConvexCell cell;
+  std::vector<double> faceArea;
+  std::vector<int> planes;
+};
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Vb0 = CGAL::Regular_triangulation_vertex_base_3<K>;
+using Vb = CGAL::Triangulation_vertex_base_with_info_3<int, K, Vb0>;
+using Cb = CGAL::Regular_triangulation_cell_base_3<K, CGAL::Triangulation_cell_base_3<K>, CGAL::Discard_hidden_points>;
+using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb, CGAL::Sequential_tag>;
+using RegularTriangulation = CGAL::Regular_triangulation_3<K, Tds>;
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// Domain
+
+Domain Domain::unitCube() {
+  Domain d;
+  d.kind_ = Kind::Cube;
+  d.volume_ = 1;
+  d.box_ = Eigen::AlignedBox3d(Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones());
+  return d;
+}
+
+Domain Domain::unitBall(int subdivisions) {
+  if (subdivisions < 0 || subdivisions > 8)
+    throw Error(ErrorKind::Usage, "Domain::unitBall: subdivisions must be in [0, 8], got " +
+                                      std::to_string(subdivisions));
+  const GeodesicSphere sphere = geodesicSphere(subdivisions);
+  Domain d;
+  d.kind_ = Kind::Ball;
+  const int n = static_cast<int>(sphere.vertices.size());
+  d.normals_.resize(n, 3);
+  for (int k = 0; k < n; ++k) d.normals_.row(k) = sphere.vertices[k].transpose();
+  // Dual vertex of each triangle: the point where its three tangent planes meet.
+  const int nt = static_cast<int>(sphere.triangles.size());
+  std::vector<Eigen::Vector3d> dual(nt);
+  std::vector<std::vector<int>> around(n);  // incident triangles
+  double radius = 0;
+  for (int t = 0; t < nt; ++t) {
+    Eigen::Matrix3d m;
+    for (int r = 0; r < 3; ++r) m.row(r) = sphere.vertices[sphere.triangles[t][r]].transpose();
+    dual[t] = m.partialPivLu().solve(Eigen::Vector3d::Ones());
+    radius = std::max(radius, dual[t].norm());
+    for (int r = 0; r < 3; ++r) around[sphere.triangles[t][r]].push_back(t);
+  }
+  // Facet k is the polygon of the dual vertices around k; order them by
+  // chaining the triangles (k, a, b): a -> b. Adjacency comes with it.
+  d.adjacency_.assign(n, {});
+  double volume = 0;
+  for (int k = 0; k < n; ++k) {
+    std::map<int, std::pair<int, int>> next;  // a -> (b, triangle)
+    for (int t : around[k]) {
+      const auto& tri = sphere.triangles[t];
+      const int r = tri[0] == k ? 0 : tri[1] == k ? 1 : 2;
+      next[tri[(r + 1) % 3]] = {tri[(r + 2) % 3], t};
+    }
+    std::vector<int> ring;
+    int a = next.begin()->first;
+    for (std::size_t step = 0; step < next.size(); ++step) {
+      d.adjacency_[k].push_back(a);
+      ring.push_back(next[a].second);
+      a = next[a].first;
+    }
+    Eigen::Vector3d areaVector = Eigen::Vector3d::Zero();
+    for (std::size_t q = 1; q + 1 < ring.size(); ++q)
+      areaVector += (dual[ring[q]] - dual[ring[0]]).cross(dual[ring[q + 1]] - dual[ring[0]]);
+    volume += 0.5 * areaVector.dot(sphere.vertices[k]) / 3.0;  // cone of height 1
+  }
+  d.volume_ = volume;
+  const double h = radius * (1 + 1e-12);
+  d.box_ = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-h), Eigen::Vector3d::Constant(h));
+  return d;
+}
+
+Eigen::Vector3d Domain::center() const {
+  return kind_ == Kind::Cube ? Eigen::Vector3d::Constant(0.5) : Eigen::Vector3d::Zero();
+}
+
+bool Domain::contains(const Eigen::Vector3d& x, double tolerance) const {
+  if (!x.allFinite()) return false;
+  if (kind_ == Kind::Cube)
+    return (x.array() >= -tolerance).all() && (x.array() <= 1 + tolerance).all();
+  if (x.squaredNorm() <= 1) return true;
+  const int k = mostExposedPlane(x);
+  return normals_.row(k).dot(x) <= 1 + tolerance;
+}
+
+int Domain::mostExposedPlane(const Eigen::Vector3d& x, int start) const {
+  if (kind_ != Kind::Ball) return -1;
+  int best = start;
+  double bestDot = -std::numeric_limits<double>::infinity();
+  if (best < 0 || best >= normals_.rows()) {
+    for (int k = 0; k < std::min<int>(12, static_cast<int>(normals_.rows())); ++k) {
+      const double v = normals_.row(k).dot(x);
+      if (v > bestDot) bestDot = v, best = k;
+    }
+  } else {
+    bestDot = normals_.row(best).dot(x);
+  }
+  // Hill-climb: a linear function over the vertices of a convex polytope has
+  // no strict local maximum along its edges but the global one.
+  for (bool moved = true; moved;) {
+    moved = false;
+    for (int q : adjacency_[best]) {
+      const double v = normals_.row(q).dot(x);
+      if (v > bestDot) {
+        bestDot = v;
+        best = q;
+        moved = true;
+      }
+    }
+  }
+  return best;
+}
+
+// ---------------------------------------------------------------------------
+// Power diagram
+
+PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
+                                 const Domain& domain) {
+  const int n = static_cast<int>(points.rows());
+  if (weights.size() != points.rows()) {
+    std::ostringstream msg;
+    msg << "computePowerDiagram: " << points.rows() << " points but " << weights.size() << " weights";
+    throw Error(ErrorKind::Usage, msg.str());
+  }
+  for (int i = 0; i < n; ++i)
+    if (!points.row(i).allFinite() || !std::isfinite(weights[i])) {
+      std::ostringstream msg;
+      msg << "computePowerDiagram: point " << i << " (" << points(i, 0) << ", " << points(i, 1) << ", "
+          << points(i, 2) << ") with weight " << weights[i] << " is not finite";
+      throw Error(ErrorKind::Input, msg.str());
+    }
+
+  PowerDiagram pd;
+  pd.volumes = Eigen::VectorXd::Zero(n);
+  pd.centroids = points;
+  pd.neighbourStart.assign(n + 1, 0);
+
+  // 1. Regular triangulation, sequential insertion after CGAL's spatial sort.
+  auto t0 = Clock::now();
+  std::vector<int> present(n, 0);
+  {
+    std::vector<std::pair<RegularTriangulation::Weighted_point, int>> input;
+    input.reserve(n);
+    for (int i = 0; i < n; ++i)
+      input.emplace_back(RegularTriangulation::Weighted_point(K::Point_3(points(i, 0), points(i, 1), points(i, 2)),
+                                                              weights[i]),
+                         i);
+    RegularTriangulation rt;
+    rt.insert(input.begin(), input.end());
+    int vertices = 0;
+    for (auto v = rt.finite_vertices_begin(); v != rt.finite_vertices_end(); ++v) {
+      present[v->info()] = 1;
+      ++vertices;
+    }
+    pd.hiddenSites = n - vertices;
+    if (rt.dimension() == 3) {
+      // Every finite edge lies in a finite cell: collect the 3 edges of each
+      // vertex in each finite cell, then sort and deduplicate per vertex. Much
+      // cheaper than CGAL's edge iterator, which circulates around each edge.
+      std::vector<int> start(n + 1, 0);
+      for (auto c = rt.finite_cells_begin(); c != rt.finite_cells_end(); ++c)
+        for (int q = 0; q < 4; ++q) start[c->vertex(q)->info() + 1] += 3;
+      for (int i = 0; i < n; ++i) start[i + 1] += start[i];
+      std::vector<int> candidates(start[n]);
+      std::vector<int> fill(start.begin(), start.end() - 1);
+      for (auto c = rt.finite_cells_begin(); c != rt.finite_cells_end(); ++c) {
+        const int v[4] = {c->vertex(0)->info(), c->vertex(1)->info(), c->vertex(2)->info(), c->vertex(3)->info()};
+        for (int q = 0; q < 4; ++q)
+          for (int r = 0; r < 4; ++r)
+            if (r != q) candidates[fill[v[q]]++] = v[r];
+      }
+      std::vector<int> degree(n + 1, 0);
+      tbb::parallel_for(tbb::blocked_range<int>(0, n, 512), [&](const tbb::blocked_range<int>& range) {
+        for (int i = range.begin(); i != range.end(); ++i) {
+          auto b = candidates.begin() + start[i], e = candidates.begin() + start[i + 1];
+          std::sort(b, e);
+          degree[i + 1] = static_cast<int>(std::unique(b, e) - b);
+        }
+      });
+      for (int i = 0; i < n; ++i) pd.neighbourStart[i + 1] = pd.neighbourStart[i] + degree[i + 1];
+      pd.neighbour.resize(pd.neighbourStart[n]);
+      tbb::parallel_for(0, n, [&](int i) {
+        std::copy_n(candidates.begin() + start[i], degree[i + 1], pd.neighbour.begin() + pd.neighbourStart[i]);
+      });
+    } else {
+      // Fewer than 4 affinely independent sites.
+      for (auto e = rt.finite_edges_begin(); e != rt.finite_edges_end(); ++e) {
+        ++pd.neighbourStart[e->first->vertex(e->second)->info() + 1];
+        ++pd.neighbourStart[e->first->vertex(e->third)->info() + 1];
+      }
+      for (int i = 0; i < n; ++i) pd.neighbourStart[i + 1] += pd.neighbourStart[i];
+      pd.neighbour.resize(pd.neighbourStart[n]);
+      std::vector<int> fill(pd.neighbourStart.begin(), pd.neighbourStart.end() - 1);
+      for (auto e = rt.finite_edges_begin(); e != rt.finite_edges_end(); ++e) {
+        const int a = e->first->vertex(e->second)->info(), b = e->first->vertex(e->third)->info();
+        pd.neighbour[fill[a]++] = b;
+        pd.neighbour[fill[b]++] = a;
+      }
+      tbb::parallel_for(0, n, [&](int i) {
+        std::sort(pd.neighbour.begin() + pd.neighbourStart[i], pd.neighbour.begin() + pd.neighbourStart[i + 1]);
+      });
+    }
+  }
+  pd.facetArea.assign(pd.neighbour.size(), 0.0);
+  pd.triangulationSeconds = secondsSince(t0);
+
+  // 2. Clip every cell.
+  t0 = Clock::now();
+  const bool ball = domain.kind() == Domain::Kind::Ball;
+  const Eigen::MatrixX3d& ballNormals = domain.planeNormals();
+  tbb::enumerable_thread_specific<CellScratch> scratch;
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
+    CellScratch& s = scratch.local();
+    ConvexCell& cell = s.cell;
+    for (int i = range.begin(); i != range.end(); ++i) {
+      if (!present[i]) continue;
+      const Eigen::Vector3d y = points.row(i).transpose();
+      cell.initBox(domain.boundingBox().min() - y, domain.boundingBox().max() - y);
+      const int b = pd.neighbourStart[i], e = pd.neighbourStart[i + 1];
+      // Every regular-triangulation neighbour bounds the unclipped cell, so
+      // nearly every plane cuts; the radius test skips the rest in O(1).
+      for (int k = b; k < e && !cell.empty(); ++k) {
+        const int j = pd.neighbour[k];
+        const Eigen::Vector3d d = points.row(j).transpose() - y;
+        const double c = 0.5 * (d.squaredNorm() - (weights[j] - weights[i]));
+        if (c > 0 && c * c >= cell.radius2() * d.squaredNorm()) continue;
+        cell.clip(d, c, k - b);
+      }
+      if (ball) {
+        int hint = -1;
+        for (int round = 0; round < 100000 && !cell.empty(); ++round) {
+          s.planes.clear();
+          for (const Eigen::Vector3d& u : cell.vertices()) {
+            const Eigen::Vector3d x = y + u;
+            if (x.squaredNorm() <= 1) continue;
+            const int p = domain.mostExposedPlane(x, hint);
+            hint = p;
+            if (ballNormals.row(p).dot(x) > 1 + 1e-13 &&
+                std::find(s.planes.begin(), s.planes.end(), p) == s.planes.end())
+              s.planes.push_back(p);
+          }
+          if (s.planes.empty()) break;
+          for (int p : s.planes) {
+            const Eigen::Vector3d nrm = ballNormals.row(p).transpose();
+            cell.clip(nrm, 1 - nrm.dot(y), -100 - p);
+          }
+        }
+      }
+      if (cell.empty()) continue;
+      double volume;
+      Eigen::Vector3d centroid;
+      cell.measure(volume, centroid, s.faceArea);
+      pd.volumes[i] = volume;
+      pd.centroids.row(i) = (y + centroid).transpose();
+      for (int f = 0; f < cell.faceCount(); ++f)
+        if (cell.faceSource(f) >= 0) pd.facetArea[b + cell.faceSource(f)] += s.faceArea[f];
+    }
+  });
+  pd.clippingSeconds = secondsSince(t0);
+  return pd;
+}
+
+}  // namespace tet2spline
