@@ -152,8 +152,35 @@ BallMapResult mapToBall(const TetMesh& mesh, const BallMapOptions& options) {
     UntangleOptions untangleOptions = options.untangle;
     untangleOptions.progress = {};
     if (options.progress) untangleOptions.progress = [&](double, const std::string& m) { return options.progress(-1, m); };
-    UntangleResult untangled = untangle(mesh.V, mesh.T, result.U, fixed, untangleOptions);
+    // Inverted tets whose four vertices are on the sphere: only sliding helps.
+    int locked = 0;
+    for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) {
+      Eigen::Vector3d p[4];
+      bool onSphere = true;
+      for (int k = 0; k < 4; ++k) p[k] = result.U.row(mesh.T(t, k)).transpose(), onSphere = onSphere && fixed[mesh.T(t, k)];
+      locked += onSphere && orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) <= 0;
+    }
+    UntangleResult untangled;
+    if (locked == 0) {
+      untangled = untangle(mesh.V, mesh.T, result.U, fixed, untangleOptions);
+    } else {
+      untangled.U = result.U;
+      untangled.invertedBefore = untangled.invertedAfter = countNonPositiveTets(result.U, mesh.T);
+    }
     result.ball.invertedTetsBeforeUntangling = untangled.invertedBefore;
+    result.ball.untangleIterations = untangled.lbfgsIterations;
+    if (untangled.invertedAfter > 0) {
+      // Some inversions need the boundary to move (e.g. a tet with four
+      // boundary vertices inverted by the spherical map): let the boundary
+      // slide on the sphere, with its triangles kept unflipped.
+      untangleOptions.sphereFaces = result.boundaryFaces;
+      std::fill(fixed.begin(), fixed.end(), false);
+      const int iterations = untangled.lbfgsIterations;
+      untangled = untangle(mesh.V, mesh.T, untangled.U, fixed, untangleOptions);
+      untangled.lbfgsIterations += iterations;
+      result.ball.boundarySlid = true;
+      result.sphere.flippedTriangles = untangled.flippedSphereTriangles;
+    }
     result.ball.invertedTets = untangled.invertedAfter;
     result.ball.untangleIterations = untangled.lbfgsIterations;
     result.U = std::move(untangled.U);

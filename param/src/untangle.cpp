@@ -86,62 +86,130 @@ int lbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
 
 }  // namespace
 
-UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4i& T, const Eigen::MatrixX3d& U0,
-                        const std::vector<bool>& fixed, const UntangleOptions& options) {
-  const Eigen::Index nv = reference.rows(), nt = T.rows();
-  if (U0.rows() != nv || static_cast<Eigen::Index>(fixed.size()) != nv)
+UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4i& T0, const Eigen::MatrixX3d& U0,
+                        const std::vector<bool>& fixed0, const UntangleOptions& options) {
+  const Eigen::Index nv = reference.rows(), nt = T0.rows(), nc = options.sphereFaces.rows();
+  if (U0.rows() != nv || static_cast<Eigen::Index>(fixed0.size()) != nv)
     throw Error(ErrorKind::Input, "untangle: reference has " + std::to_string(nv) + " vertices, U " +
-                                      std::to_string(U0.rows()) + ", fixed mask " + std::to_string(fixed.size()));
-  if (nt > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= nv))
+                                      std::to_string(U0.rows()) + ", fixed mask " + std::to_string(fixed0.size()));
+  if (nt > 0 && (T0.minCoeff() < 0 || T0.maxCoeff() >= nv))
     throw Error(ErrorKind::Input, "untangle: tet vertex index out of range");
+  if (nc > 0 && (options.sphereFaces.minCoeff() < 0 || options.sphereFaces.maxCoeff() >= nv))
+    throw Error(ErrorKind::Input, "untangle: sphere face vertex index out of range");
   UntangleResult result;
   result.U = U0;
-  result.invertedBefore = countNonPositiveTets(U0, T);
+  result.invertedBefore = countNonPositiveTets(U0, T0);
   result.invertedAfter = result.invertedBefore;
-  if (result.invertedBefore == 0 || nt == 0) return result;
+  result.flippedSphereTriangles = 0;
+  // Extended problem: vertex nv is the (fixed) origin, tets nt.. are the cones
+  // (origin, a, b, c) over the sphere faces.
+  const Eigen::Index nvx = nv + 1, ntx = nt + nc;
+  Eigen::MatrixX4i T(ntx, 4);
+  T.topRows(nt) = T0;
+  for (Eigen::Index f = 0; f < nc; ++f) T.row(nt + f) << static_cast<int>(nv), options.sphereFaces(f, 0), options.sphereFaces(f, 1), options.sphereFaces(f, 2);
+  Eigen::MatrixX3d W(nvx, 3);  // working positions
+  W.topRows(nv) = U0;
+  W.row(nv).setZero();
+  std::vector<bool> fixed(fixed0);
+  fixed.push_back(true);
+  std::vector<char> sliding(static_cast<size_t>(nvx), 0);
+  for (Eigen::Index f = 0; f < nc; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (!fixed[options.sphereFaces(f, k)]) sliding[options.sphereFaces(f, k)] = 1;
+  auto positive = [&](Eigen::Index t) {
+    Eigen::Vector3d p[4];
+    for (int k = 0; k < 4; ++k) p[k] = W.row(T(t, k)).transpose();
+    return orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) > 0;
+  };
+  auto countBad = [&](Eigen::Index from, Eigen::Index to) {
+    int bad = 0;
+    for (Eigen::Index t = from; t < to; ++t) bad += !positive(t);
+    return bad;
+  };
+  result.flippedSphereTriangles = countBad(nt, ntx);
+  if ((result.invertedBefore == 0 && result.flippedSphereTriangles == 0) || nt == 0) return result;
 
   // Reference gradients of the barycentric coordinates, scaled so that the
-  // reference volume equals the mapped one (det J ≈ 1 on average).
-  std::vector<Eigen::Matrix<double, 3, 4>> grad(static_cast<size_t>(nt));
-  Eigen::VectorXd weight(nt);
+  // reference volume equals the mapped one (det J ≈ 1 on average). The cones
+  // share one reference: apex at the origin over an equilateral triangle of
+  // the mean spherical area, at height 1.
+  std::vector<Eigen::Matrix<double, 3, 4>> grad(static_cast<size_t>(ntx));
+  Eigen::VectorXd weight(ntx);
   double refVolume = 0, mapVolume = 0;
+  auto gradients = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                      const Eigen::Vector3d& d, double vol) {
+    Eigen::Matrix<double, 3, 4> G;  // ∇φ_k = −(outward area vector of the face opposite k) / (3 vol)
+    G.col(0) = 0.5 * (d - b).cross(c - b) / (3 * vol);
+    G.col(1) = 0.5 * (c - a).cross(d - a) / (3 * vol);
+    G.col(2) = 0.5 * (d - a).cross(b - a) / (3 * vol);
+    G.col(3) = 0.5 * (b - a).cross(c - a) / (3 * vol);
+    return G;
+  };
   for (Eigen::Index t = 0; t < nt; ++t) {
     const Eigen::Vector3d a = reference.row(T(t, 0)), b = reference.row(T(t, 1)), c = reference.row(T(t, 2)),
                           d = reference.row(T(t, 3));
     const double vol = (b - a).cross(c - a).dot(d - a) / 6;
     if (!(vol > 0))
       throw Error(ErrorKind::Input, "untangle: reference tet " + std::to_string(t) + " has non-positive volume");
-    Eigen::Matrix<double, 3, 4>& G = grad[static_cast<size_t>(t)];
-    G.col(0) = -0.5 * (d - b).cross(c - b) / (3 * vol);
-    G.col(1) = -0.5 * (c - a).cross(d - a) / (3 * vol);
-    G.col(2) = -0.5 * (d - a).cross(b - a) / (3 * vol);
-    G.col(3) = -0.5 * (b - a).cross(c - a) / (3 * vol);
+    grad[static_cast<size_t>(t)] = gradients(a, b, c, d, vol);
     weight[t] = vol;
     refVolume += vol;
     const Eigen::Vector3d A = U0.row(T(t, 0)), B = U0.row(T(t, 1)), C = U0.row(T(t, 2)), D = U0.row(T(t, 3));
     mapVolume += (B - A).cross(C - A).dot(D - A) / 6;
   }
-  weight /= refVolume / static_cast<double>(nt);
-  const double scale = mapVolume > 0 ? std::cbrt(mapVolume / refVolume) : 1.0;
-  for (auto& G : grad) G /= scale;
+  // Local scale: the map may shrink some parts a thousandfold (fingers on a
+  // conformal sphere), so one global scale would leave det J far from 1 and
+  // ε meaningless. Each reference tet is scaled by the cube root of the mean,
+  // over its vertices, of (mapped volume / reference volume) around the vertex.
+  static_cast<void>(mapVolume);
+  {
+    Eigen::VectorXd mapped = Eigen::VectorXd::Zero(nv), ref = Eigen::VectorXd::Zero(nv);
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      const Eigen::Vector3d A = U0.row(T(t, 0)), B = U0.row(T(t, 1)), C = U0.row(T(t, 2)), D = U0.row(T(t, 3));
+      const double v = std::abs((B - A).cross(C - A).dot(D - A) / 6);
+      for (int k = 0; k < 4; ++k) mapped[T(t, k)] += v, ref[T(t, k)] += weight[t];
+    }
+    const double globalRatio = mapped.sum() / ref.sum();
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      double ratio = 0;
+      for (int k = 0; k < 4; ++k) ratio += mapped[T(t, k)] / ref[T(t, k)];
+      ratio /= 4;
+      if (!(ratio > 0)) ratio = globalRatio;
+      const double scale = std::cbrt(ratio);
+      grad[static_cast<size_t>(t)] /= scale;
+      weight[t] *= ratio;
+    }
+  }
+  const double meanWeight = weight.head(nt).mean();
+  // Cones: apex at the origin over an equilateral triangle of the initial
+  // triangle's area, at height 1.
+  for (Eigen::Index f = 0; f < nc; ++f) {
+    const Eigen::Vector3d A = U0.row(T(nt + f, 1)), B = U0.row(T(nt + f, 2)), C = U0.row(T(nt + f, 3));
+    const double area = std::max(0.5 * (B - A).cross(C - A).norm(), 1e-6 * 4 * M_PI / static_cast<double>(nc));
+    const double r = std::sqrt(area * 4 / (3 * std::sqrt(3.0)));
+    const Eigen::Vector3d o(0, 0, 0), a(r, 0, 1), b(r * std::cos(2 * M_PI / 3), r * std::sin(2 * M_PI / 3), 1),
+        c(r * std::cos(4 * M_PI / 3), r * std::sin(4 * M_PI / 3), 1);
+    const double vol = (a - o).cross(b - o).dot(c - o) / 6;
+    grad[static_cast<size_t>(nt + f)] = gradients(o, a, b, c, vol);
+    weight[nt + f] = vol;
+  }
+  weight /= meanWeight;
 
-  const detail::VertexTets vt = detail::vertexTets(nv, T);
-  std::vector<int> inRegion(static_cast<size_t>(nv), -1);  // variable index of a free vertex
+  const detail::VertexTets vt = detail::vertexTets(nvx, T);
+  std::vector<int> inRegion(static_cast<size_t>(nvx), -1);  // variable index of a free vertex
   int rings = options.rings;
+  size_t previousFree = 0;
   for (;;) {
     // Free region: `rings` rings around the vertices of inverted tets.
     std::vector<int> freeVerts;
     std::fill(inRegion.begin(), inRegion.end(), -1);
-    std::vector<char> mark(static_cast<size_t>(nv), 0);
+    std::vector<char> mark(static_cast<size_t>(nvx), 0);
     if (rings < 0) {
-      for (Eigen::Index v = 0; v < nv; ++v) mark[v] = 1;
+      std::fill(mark.begin(), mark.end(), 1);
     } else {
-      for (Eigen::Index t = 0; t < nt; ++t) {
-        const Eigen::Vector3d a = result.U.row(T(t, 0)), b = result.U.row(T(t, 1)), c = result.U.row(T(t, 2)),
-                              d = result.U.row(T(t, 3));
-        if (orient3d(a.data(), b.data(), c.data(), d.data()) <= 0)
+      for (Eigen::Index t = 0; t < ntx; ++t)
+        if (!positive(t))
           for (int k = 0; k < 4; ++k) mark[T(t, k)] = 1;
-      }
       for (int r = 0; r < rings; ++r) {
         std::vector<char> next = mark;
         for (Eigen::Index v = 0; v < nv; ++v)
@@ -151,27 +219,32 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         mark.swap(next);
       }
     }
-    for (Eigen::Index v = 0; v < nv; ++v)
+    for (Eigen::Index v = 0; v < nvx; ++v)
       if (mark[v] && !fixed[v]) inRegion[v] = static_cast<int>(freeVerts.size()), freeVerts.push_back(static_cast<int>(v));
     std::vector<int> active;  // tets with a free vertex
-    for (Eigen::Index t = 0; t < nt; ++t)
+    for (Eigen::Index t = 0; t < ntx; ++t)
       for (int k = 0; k < 4; ++k)
         if (inRegion[T(t, k)] >= 0) {
           active.push_back(static_cast<int>(t));
           break;
         }
     result.freeVertices = static_cast<int>(freeVerts.size());
-    if (freeVerts.empty()) break;
+    if (freeVerts.empty() || freeVerts.size() == previousFree) break;  // nothing new to move
+    previousFree = freeVerts.size();
 
-    std::vector<int> activeIndex(static_cast<size_t>(nt), -1);
+    std::vector<int> activeIndex(static_cast<size_t>(ntx), -1);
     for (size_t a = 0; a < active.size(); ++a) activeIndex[active[a]] = static_cast<int>(a);
     std::vector<Eigen::Matrix<double, 3, 4>> tetGrad(active.size());
     std::vector<double> det(active.size());
-    Eigen::MatrixX3d W = result.U;  // working positions
+    double e0 = 1e-3;
     double eps = 1;
 
     auto evaluate = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) -> double {
-      for (size_t k = 0; k < freeVerts.size(); ++k) W.row(freeVerts[k]) = x.segment<3>(3 * static_cast<Eigen::Index>(k)).transpose();
+      for (size_t k = 0; k < freeVerts.size(); ++k) {
+        Eigen::Vector3d y = x.segment<3>(3 * static_cast<Eigen::Index>(k));
+        if (sliding[freeVerts[k]]) y /= y.norm();
+        W.row(freeVerts[k]) = y.transpose();
+      }
       const double E = tbb::parallel_deterministic_reduce(
           tbb::blocked_range<size_t>(0, active.size(), 1024), 0.0,
           [&](const tbb::blocked_range<size_t>& r, double sum) {
@@ -206,6 +279,12 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
             Eigen::Vector3d s = Eigen::Vector3d::Zero();
             for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e)
               s += tetGrad[static_cast<size_t>(activeIndex[vt.corner[e] / 4])].col(vt.corner[e] % 4);
+            if (sliding[v]) {  // chain rule through y ↦ y/|y|
+              const Eigen::Vector3d y = x.segment<3>(3 * static_cast<Eigen::Index>(k));
+              const double len = y.norm();
+              const Eigen::Vector3d n = y / len;
+              s = (s - n * n.dot(s)) / len;
+            }
             g->segment<3>(3 * static_cast<Eigen::Index>(k)) = s;
           }
         });
@@ -214,56 +293,63 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     };
 
     Eigen::VectorXd x(3 * static_cast<Eigen::Index>(freeVerts.size()));
-    for (size_t k = 0; k < freeVerts.size(); ++k) x.segment<3>(3 * static_cast<Eigen::Index>(k)) = result.U.row(freeVerts[k]).transpose();
+    for (size_t k = 0; k < freeVerts.size(); ++k) x.segment<3>(3 * static_cast<Eigen::Index>(k)) = W.row(freeVerts[k]).transpose();
     auto detMin = [&]() { return active.empty() ? 1.0 : *std::min_element(det.begin(), det.end()); };
+    double bestDet = -std::numeric_limits<double>::infinity();
+    int lastProgress = 0;
     for (int outer = 0; outer < options.maxOuterIterations; ++outer) {
-      const double Eprev = evaluate(x, nullptr);
+      // ε from the smallest determinant (the reference code's eq. (7)): large
+      // enough that χ stays smooth around the worst tet, halved base every 10.
+      evaluate(x, nullptr);
+      if (outer > 0 && outer % 10 == 0 && e0 > 1e-8) e0 /= 2;
+      const double d0 = detMin();
+      const double proposed = d0 > 0 ? e0 : std::sqrt(e0 * e0 + 0.04 * d0 * d0);
+      // Never relax the barrier again, and tighten it while inversions remain.
+      eps = outer == 0 ? proposed : std::min(d0 > 0 ? eps : 0.7 * eps, proposed);
       result.lbfgsIterations += lbfgs([&](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return evaluate(y, &g); }, x,
                                       options.maxLbfgsIterations, options.lbfgsMemory);
+      for (size_t k = 0; k < freeVerts.size(); ++k)
+        if (sliding[freeVerts[k]]) x.segment<3>(3 * static_cast<Eigen::Index>(k)).normalize();
       const double E = evaluate(x, nullptr);
       const double dmin = detMin();
       ++result.outerIterations;
       result.minDet = dmin;
-      const double sigma = std::max(1 - E / Eprev, 0.1);
-      const double mu = (1 - sigma) * chi(eps, dmin);
-      eps = dmin < mu ? std::max(1e-9, 2 * std::sqrt(mu * (mu - dmin))) : 1e-9;
       if (options.progress &&
-          !options.progress(-1, "untangle: eps " + std::to_string(eps) + ", min det " + std::to_string(dmin))) {
+          !options.progress(-1, "untangle: eps " + std::to_string(eps) + ", min det " + std::to_string(dmin) + ", E " +
+                                  std::to_string(E) + ", L-BFGS iterations " + std::to_string(result.lbfgsIterations) +
+                                  ", free " + std::to_string(freeVerts.size()))) {
         result.status = Status::failure("untangle: stopped by the progress callback");
         break;
       }
-      if (dmin > 0 && std::abs(Eprev - E) / E < 1e-5) {
-        // Floating point says untangled; confirm exactly on the active tets.
+      if (dmin > bestDet + 1e-3 * std::abs(bestDet)) bestDet = dmin, lastProgress = outer;
+      if (dmin <= 0 && outer - lastProgress >= options.stallIterations) break;  // this region cannot do it
+      // Floating point says untangled: confirm exactly on the active tets.
+      if (dmin > 0) {
         int bad = 0;
-        for (int t : active) {
-          Eigen::Vector3d p[4];
-          for (int k = 0; k < 4; ++k) p[k] = W.row(T(t, k)).transpose();
-          bad += orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) <= 0;
-        }
+        for (int t : active) bad += !positive(t);
         if (bad == 0) break;
       }
     }
-    for (size_t k = 0; k < freeVerts.size(); ++k) result.U.row(freeVerts[k]) = x.segment<3>(3 * static_cast<Eigen::Index>(k)).transpose();
-    result.invertedAfter = countNonPositiveTets(result.U, T);
-    if (result.invertedAfter == 0 || !result.status.ok || rings < 0) break;
+    result.U = W.topRows(nv);
+    result.invertedAfter = countNonPositiveTets(result.U, T0);
+    result.flippedSphereTriangles = countBad(nt, ntx);
+    if ((result.invertedAfter == 0 && result.flippedSphereTriangles == 0) || !result.status.ok || rings < 0) break;
     // Tets whose four vertices are fixed cannot be repaired by any region.
     int locked = 0;
-    for (Eigen::Index t = 0; t < nt; ++t) {
+    for (Eigen::Index t = 0; t < ntx; ++t) {
       bool allFixed = true;
       for (int k = 0; k < 4; ++k) allFixed = allFixed && fixed[T(t, k)];
-      if (!allFixed) continue;
-      Eigen::Vector3d p[4];
-      for (int k = 0; k < 4; ++k) p[k] = result.U.row(T(t, k)).transpose();
-      locked += orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) <= 0;
+      if (allFixed) locked += !positive(t);
     }
-    if (locked == result.invertedAfter) break;
+    if (locked == result.invertedAfter + result.flippedSphereTriangles) break;
     // Grow the region; once it would hold (nearly) everything, free it all.
     rings = rings == 0 ? 1 : 2 * rings;
     if (static_cast<Eigen::Index>(freeVerts.size()) * 2 > nv) rings = -1;
   }
-  if (result.invertedAfter > 0 && result.status.ok)
-    result.status = Status::failure("untangle: " + std::to_string(result.invertedAfter) +
-                                    " tets remain inverted (some may have only fixed vertices)");
+  if ((result.invertedAfter > 0 || result.flippedSphereTriangles > 0) && result.status.ok)
+    result.status = Status::failure("untangle: " + std::to_string(result.invertedAfter) + " tets remain inverted and " +
+                                    std::to_string(result.flippedSphereTriangles) +
+                                    " sphere triangles flipped (some may have only fixed vertices)");
   return result;
 }
 

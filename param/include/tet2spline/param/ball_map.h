@@ -6,7 +6,11 @@
 ///    bijectively onto the unit sphere (spherical_map.h);
 /// 2. the interior follows by the harmonic map with that boundary fixed
 ///    (harmonic_map.h);
-/// 3. inverted tets are untangled with the boundary kept (untangle.h).
+/// 3. inverted tets are untangled with the boundary kept (untangle.h); if
+///    some cannot be repaired that way (a tet whose four vertices are on the
+///    boundary is decided by the spherical map alone; TetGen makes many at
+///    sharp features), a second pass lets the boundary vertices near them
+///    slide on the sphere while keeping every sphere triangle unflipped.
 /// Voids must already be filled with tets (design.md, "Voids"): void tets are
 /// ordinary tets of the filled solid. A solid whose boundary has more than one
 /// shell is refused (Error(Topology)).
@@ -34,7 +38,7 @@ struct BallMapResult {
   Eigen::VectorXi boundaryVertices;   ///< vertices of the outer shell, ascending
   Eigen::MatrixX3i boundaryFaces;     ///< outward triangles of the outer shell, indexing V
   struct Sphere {
-    int flippedTriangles = 0;         ///< report key sphere.flipped_triangles
+    int flippedTriangles = 0;         ///< report key sphere.flipped_triangles (after untangling)
     double angleDistortionMean = 0;   ///< σ_max/σ_min per triangle, mean
     double angleDistortionMax = 0;
     double centreOffset = 0;
@@ -46,6 +50,7 @@ struct BallMapResult {
     double harmonicResidual = 0;           ///< relative residual of the Dirichlet solve
     std::string solver;
     int untangleIterations = 0;            ///< L-BFGS iterations
+    bool boundarySlid = false;             ///< untangling had to slide boundary vertices on the sphere
   } ball;
   double boundaryMaxDistance = 0;     ///< max over boundary vertices of | |u| − 1 |
   struct Timings {
