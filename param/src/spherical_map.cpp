@@ -355,7 +355,7 @@ SphericalMapResult sphericalMap(const SurfaceMesh& surface, const SphericalMapOp
     for (int k = 0; k < 3; ++k) s += l[k] = (V.row(F(f, (k + 1) % 3)) - V.row(F(f, k))).norm();
     double reg = 0;
     for (double x : l) reg += std::abs(x / s - 1.0 / 3);
-    if (reg < best) best = reg, big = static_cast<int>(f);
+    if (reg < best - 1e-9) best = reg, big = static_cast<int>(f);  // ties (within rounding): lowest index, so rigid motions pick the same
   }
   const std::vector<int> puncture = {F(big, 0), F(big, 1), F(big, 2)};
   // The puncture triangle, similar to the input one, counter-clockwise.
