@@ -18,6 +18,10 @@ int orient3d(const double* a, const double* b, const double* c, const double* d)
   return static_cast<int>(CGAL::orientation(P(a), P(b), P(c), P(d)));
 }
 
+bool collinear(const double* a, const double* b, const double* c) {
+  return CGAL::collinear(P(a), P(b), P(c));
+}
+
 int countNonPositiveTets(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T) {
   return tbb::parallel_reduce(
       tbb::blocked_range<Eigen::Index>(0, T.rows(), 4096), 0,

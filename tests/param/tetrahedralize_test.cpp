@@ -1,0 +1,275 @@
+// TetGen meshing of closed surfaces: synthetic nested spheres (regions and
+// voids), and the real libcgal-demo surfaces of design.md, valid and invalid.
+#include "tet2spline/param/tetrahedralize.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "param/test_shapes.h"
+#include "test_data.h"
+#include "tet2spline/io/mesh_io.h"
+#include "tet2spline/param/topology.h"
+
+using namespace tet2spline;
+
+namespace {
+
+/// Region tag -> summed tet volume.
+std::map<int, double> regionVolumes(const TetMesh& m) {
+  std::map<int, double> v;
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t) v[m.region(t)] += t2stest::tetVolume(m, t);
+  return v;
+}
+
+/// Volume enclosed by a triangulated sphere (the polyhedron, not the ball).
+double enclosedVolume(const SurfaceMesh& s) {
+  return std::abs(analyzeSurface(s, false).shells.at(0).enclosedVolume);
+}
+
+void expectValidBall(const TetMesh& m, const std::string& name) {
+  const SolidReport r = analyzeSolid(m);
+  EXPECT_TRUE(r.valid()) << name << ": " << (r.problems.empty() ? "" : r.problems[0]);
+  EXPECT_EQ(r.components, 1) << name;
+  EXPECT_EQ(r.genus, 0) << name;
+  EXPECT_EQ(r.invertedTets, 0) << name;
+  EXPECT_EQ(r.degenerateTets, 0) << name;
+  EXPECT_EQ(r.unusedVertices, 0) << name;
+  EXPECT_EQ(countNonPositiveTets(m.V, m.T), 0) << name;
+}
+
+ErrorKind tetrahedralizeError(const SurfaceMesh& s, const std::string& name, std::string* message = nullptr) {
+  try {
+    tetrahedralize(s, {}, name);
+  } catch (const Error& e) {
+    if (message) *message = e.what();
+    EXPECT_EQ(std::string(e.what()).rfind(name + ": ", 0), 0u) << e.what();
+    return e.kind();
+  }
+  ADD_FAILURE() << name << " was meshed";
+  return ErrorKind::Usage;
+}
+
+}  // namespace
+
+TEST(Tetrahedralize, SphereGivesOnePositiveBall) {
+  const SurfaceMesh s = t2stest::sphere(3);
+  const TetMesh m = tetrahedralize(s);
+  expectValidBall(m, "sphere");
+  EXPECT_EQ(analyzeSolid(m).regions, std::vector<int>{1});
+  EXPECT_TRUE(m.voidRegions.empty());
+  EXPECT_NEAR(t2stest::totalVolume(m), enclosedVolume(s), 1e-12 * enclosedVolume(s));
+}
+
+TEST(Tetrahedralize, SurfaceVerticesComeFirstUnchanged) {
+  SurfaceMesh s = t2stest::sphere(2);
+  // An unused vertex in the middle of the list is skipped, the order kept.
+  s.V.conservativeResize(s.V.rows() + 1, 3);
+  s.V.row(s.V.rows() - 1) = s.V.row(3);
+  s.V.row(3) << 7, 7, 7;
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (s.F(f, k) == 3) s.F(f, k) = int(s.V.rows()) - 1;
+  const TetMesh m = tetrahedralize(s);
+  ASSERT_GE(m.V.rows(), s.V.rows() - 1);
+  for (Eigen::Index v = 0, out = 0; v < s.V.rows(); ++v) {
+    if (v == 3) continue;
+    EXPECT_TRUE(m.V.row(out) == s.V.row(v)) << v;
+    ++out;
+  }
+}
+
+TEST(Tetrahedralize, BadOptionsAreUsageErrors) {
+  TetrahedralizeOptions options;
+  options.radiusEdgeRatio = 0.5;
+  try {
+    tetrahedralize(t2stest::sphere(1), options);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Usage);
+  }
+}
+
+TEST(Tetrahedralize, InwardOrientedSphereIsMeshedTheSame) {
+  const SurfaceMesh s = t2stest::sphere(2, 1, Eigen::RowVector3d::Zero(), true);
+  const TetMesh m = tetrahedralize(s);
+  expectValidBall(m, "inward sphere");
+  EXPECT_NEAR(t2stest::totalVolume(m), enclosedVolume(s), 1e-12);
+}
+
+TEST(Tetrahedralize, NestedSphereIsASecondRegion) {
+  const SurfaceMesh outer = t2stest::sphere(3, 2), inner = t2stest::sphere(2, 0.7, Eigen::RowVector3d(0.3, 0, 0));
+  const TetMesh m = tetrahedralize(t2stest::merge(outer, inner));
+  expectValidBall(m, "nested");
+  const auto vol = regionVolumes(m);
+  ASSERT_EQ(vol.size(), 2u);
+  EXPECT_NEAR(vol.at(2), enclosedVolume(inner), 1e-12);
+  EXPECT_NEAR(vol.at(1), enclosedVolume(outer) - enclosedVolume(inner), 1e-12);
+  EXPECT_TRUE(m.voidRegions.empty());
+  EXPECT_EQ(analyzeSolid(m).voids, 0);
+}
+
+TEST(Tetrahedralize, SolidWithACavityHasTwoShellsOuterFirst) {
+  const SurfaceMesh outer = t2stest::sphere(3, 2), inner = t2stest::sphere(2, 0.7, Eigen::RowVector3d(0.3, 0, 0));
+  const TetMesh filled = tetrahedralize(t2stest::merge(inner, outer));
+  // Keep region 1 only: a solid with an unfilled cavity.
+  TetMesh m = filled;
+  int n = 0;
+  for (Eigen::Index t = 0; t < filled.T.rows(); ++t)
+    if (filled.region(t) == 1) m.T.row(n++) = filled.T.row(t);
+  m.T.conservativeResize(n, 4);
+  m.region = Eigen::VectorXi::Ones(n);
+  const SolidReport r = analyzeSolid(m);
+  EXPECT_TRUE(r.valid()) << r.problems[0];
+  ASSERT_EQ(r.shells.size(), 2u);
+  EXPECT_EQ(r.voids, 1);
+  EXPECT_NEAR(r.shells[0].enclosedVolume, enclosedVolume(outer), 1e-12);
+  EXPECT_NEAR(r.shells[1].enclosedVolume, -enclosedVolume(inner), 1e-12);  // faces point into the cavity
+  EXPECT_EQ(r.shells[1].genus, 0);
+}
+
+TEST(Tetrahedralize, InnerShellListedFirstStillGetsTagTwo) {
+  const SurfaceMesh outer = t2stest::sphere(3, 2), inner = t2stest::sphere(2, 0.5);
+  const TetMesh m = tetrahedralize(t2stest::merge(inner, outer));
+  const auto vol = regionVolumes(m);
+  ASSERT_EQ(vol.size(), 2u);
+  EXPECT_NEAR(vol.at(1), enclosedVolume(outer) - enclosedVolume(inner), 1e-12);
+}
+
+TEST(Tetrahedralize, VoidIsFilledAndTagged) {
+  const SurfaceMesh outer = t2stest::sphere(3, 2);
+  const SurfaceMesh cavity1 = t2stest::sphere(2, 0.5, Eigen::RowVector3d(-0.8, 0, 0), true);
+  const SurfaceMesh cavity2 = t2stest::sphere(2, 0.4, Eigen::RowVector3d(0.8, 0, 0));
+  TetrahedralizeOptions options;
+  options.voids = true;
+  const TetMesh m = tetrahedralize(t2stest::merge(t2stest::merge(outer, cavity1), cavity2), options);
+  expectValidBall(m, "voids");
+  EXPECT_EQ(m.voidRegions, (std::set<int>{2, 3}));
+  const SolidReport r = analyzeSolid(m);
+  EXPECT_EQ(r.voids, 2);
+  EXPECT_EQ(r.shells.size(), 1u);  // filled: the solid is a ball
+  const auto vol = regionVolumes(m);
+  EXPECT_NEAR(vol.at(2), enclosedVolume(cavity1), 1e-12);
+  EXPECT_NEAR(vol.at(3), enclosedVolume(cavity2), 1e-12);
+}
+
+TEST(Tetrahedralize, OneVoid) {
+  TetrahedralizeOptions options;
+  options.voids = true;
+  const TetMesh m = tetrahedralize(t2stest::merge(t2stest::sphere(3, 2), t2stest::sphere(2, 0.5)), options);
+  EXPECT_EQ(m.voidRegions.size(), 1u);
+  EXPECT_EQ(analyzeSolid(m).voids, 1);
+}
+
+TEST(Tetrahedralize, IslandInsideAVoidIsRefused) {
+  TetrahedralizeOptions options;
+  options.voids = true;
+  const SurfaceMesh s = t2stest::merge(t2stest::merge(t2stest::sphere(2, 3), t2stest::sphere(2, 2)), t2stest::sphere(2, 1));
+  try {
+    tetrahedralize(s, options);
+    ADD_FAILURE() << "an island inside a void was meshed";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Topology);
+    EXPECT_NE(std::string(e.what()).find("inside the void"), std::string::npos) << e.what();
+  }
+  // Without voids the three levels are three regions.
+  EXPECT_EQ(regionVolumes(tetrahedralize(s)).size(), 3u);
+}
+
+TEST(Tetrahedralize, SideBySideSolidsAreRefused) {
+  const SurfaceMesh s = t2stest::merge(t2stest::sphere(2), t2stest::sphere(2, 1, Eigen::RowVector3d(3, 0, 0)));
+  std::string message;
+  EXPECT_EQ(tetrahedralizeError(s, "two.off", &message), ErrorKind::Topology);
+  EXPECT_NE(message.find("2 separate solids"), std::string::npos) << message;
+}
+
+TEST(Tetrahedralize, TorusIsRefusedWithItsGenus) {
+  std::string message;
+  EXPECT_EQ(tetrahedralizeError(t2stest::torus(), "torus.off", &message), ErrorKind::Topology);
+  EXPECT_NE(message.find("genus 1"), std::string::npos) << message;
+}
+
+TEST(Tetrahedralize, SizeOptionsRefine) {
+  const SurfaceMesh s = t2stest::sphere(2);
+  const TetMesh coarse = tetrahedralize(s);
+  TetrahedralizeOptions options;
+  options.relativeSize = 0.1;  // edges ≈ 0.1 × diagonal ≈ 0.35
+  const TetMesh fine = tetrahedralize(s, options);
+  EXPECT_GT(fine.T.rows(), coarse.T.rows());
+  const double diag = 2 * std::sqrt(3.0), edge = 0.1 * diag;
+  const double maxVolume = edge * edge * edge / (6 * std::sqrt(2.0));
+  for (Eigen::Index t = 0; t < fine.T.rows(); ++t) EXPECT_LE(t2stest::tetVolume(fine, t), maxVolume * (1 + 1e-9));
+  expectValidBall(fine, "fine sphere");
+}
+
+TEST(Tetrahedralize, PrintsNothing) {
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  const TetMesh m = tetrahedralize(t2stest::merge(t2stest::sphere(2, 2), t2stest::sphere(1, 0.5)));
+  const std::string out = ::testing::internal::GetCapturedStdout();
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_GT(m.T.rows(), 0);
+  EXPECT_EQ(out, "");
+  EXPECT_EQ(err, "");
+}
+
+TEST(Tetrahedralize, IsDeterministic) {
+  const SurfaceMesh s = t2stest::sphere(2);
+  const TetMesh a = tetrahedralize(s), b = tetrahedralize(s);
+  EXPECT_TRUE(a.V == b.V);
+  EXPECT_TRUE(a.T == b.T);
+}
+
+// Real surfaces (design.md, "Test data"). bunny00 lives in
+// tetrahedralize_slow_test.cpp.
+
+class Genus0Mesh : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Genus0Mesh, GivesAValidBallWithItsVolume) {
+  const std::string name = GetParam();
+  const SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
+  const auto t0 = std::chrono::steady_clock::now();
+  const TetMesh m = tetrahedralize(s, {}, name);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("tetrahedralize(%s): %lld tets, %.2f s\n", name.c_str(), (long long)m.T.rows(), seconds);
+  expectValidBall(m, name);
+  const double surfaceVolume = enclosedVolume(s);
+  EXPECT_NEAR(t2stest::totalVolume(m), surfaceVolume, 1e-9 * surfaceVolume) << name;
+}
+
+INSTANTIATE_TEST_SUITE_P(TetrahedralizeReal, Genus0Mesh,
+                         ::testing::Values("blob-closed", "part", "spool", "hand", "blobby", "triceratops",
+                                           "fandisk", "retinal", "homer"),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
+
+TEST(TetrahedralizeReal, HandlesAreRefusedWithTheirGenus) {
+  for (const char* name : {"elephant", "femur", "knot", "rotor"}) {
+    std::string message;
+    EXPECT_EQ(tetrahedralizeError(readSurface(t2stest::cgalMesh(name)), name, &message), ErrorKind::Topology);
+    EXPECT_NE(message.find("has genus "), std::string::npos) << message;
+  }
+}
+
+TEST(TetrahedralizeReal, SelfIntersectingSurfacesAreRefused) {
+  for (const char* name : {"cow", "camel", "man"}) {
+    std::string message;
+    EXPECT_EQ(tetrahedralizeError(readSurface(t2stest::cgalMesh(name)), name, &message), ErrorKind::Input);
+    EXPECT_NE(message.find("intersects itself"), std::string::npos) << message;
+  }
+}
+
+TEST(TetrahedralizeReal, OpenSurfacesAreRefused) {
+  for (const char* name : {"lion", "head"}) {
+    std::string message;
+    EXPECT_EQ(tetrahedralizeError(readSurface(t2stest::cgalMesh(name)), name, &message), ErrorKind::Topology);
+    EXPECT_NE(message.find("open"), std::string::npos) << message;
+  }
+}
