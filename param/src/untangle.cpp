@@ -346,6 +346,16 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     rings = rings == 0 ? 1 : 2 * rings;
     if (static_cast<Eigen::Index>(freeVerts.size()) * 2 > nv) rings = -1;
   }
+  // Never hand back something worse than what came in.
+  const int flippedBefore = [&] {
+    W.topRows(nv) = U0;
+    return countBad(nt, ntx);
+  }();
+  if (result.invertedAfter + result.flippedSphereTriangles > result.invertedBefore + flippedBefore) {
+    result.U = U0;
+    result.invertedAfter = result.invertedBefore;
+    result.flippedSphereTriangles = flippedBefore;
+  }
   if ((result.invertedAfter > 0 || result.flippedSphereTriangles > 0) && result.status.ok)
     result.status = Status::failure("untangle: " + std::to_string(result.invertedAfter) + " tets remain inverted and " +
                                     std::to_string(result.flippedSphereTriangles) +

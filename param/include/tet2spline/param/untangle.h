@@ -39,7 +39,7 @@ struct UntangleOptions {
   int maxLbfgsIterations = 100;    ///< L-BFGS iterations per ε
   int lbfgsMemory = 10;
   int stallIterations = 15;        ///< give up a region when min det J has not grown for this many ε updates
-  int rings = 3;                   ///< initial free region around inverted tets; < 0: all free vertices
+  int rings = 3;                   ///< initial free region (vertex rings) around inverted tets, doubled while it fails; < 0: all free vertices
   /// Outward triangles (indexing U) of a boundary that lies on the unit
   /// sphere. Their vertices that are not fixed may slide on the sphere
   /// (position y/|y|), and the cones (0, a, b, c) join the energy as extra
