@@ -1,0 +1,73 @@
+#pragma once
+/// Bijective map of a closed genus-0 triangle surface onto the unit sphere
+/// (design.md, "Spherical map of the outer shell").
+///
+/// Route, chosen by measurement on the ten genus-0 test surfaces (all linear
+/// solves, one sparse Cholesky each):
+///  1. "fast spherical conformal map" of Choi, Lam and Lui (SIAM J. Imaging
+///     Sci. 2015): puncture the most regular triangle, solve the cotangent
+///     Laplace equation in the plane with that triangle fixed, inverse
+///     stereographic projection from the north pole, rescale so the northern
+///     and southern triangles are balanced, then a linear Beltrami solve in
+///     the south-pole projection (10% of the vertices nearest the south pole
+///     fixed) that removes the distortion near the puncture;
+///  2. Möbius normalisation: the mass centre c = Σ m_i u_i / Σ m_i, with m_i a
+///     third of the input area around vertex i, is moved to the origin by
+///     repeating u ↦ φ_c(u) = ((1−|c|²)(u−c) − |u−c|² c)/|u−c|² (the ball
+///     automorphism sending c to 0; Baden, Crane, Kazhdan 2018, "Möbius
+///     registration"), which keeps the map conformal and orientation-preserving;
+///  3. exact check: a triangle (a,b,c) of the outward oriented surface is
+///     flipped when orient3d(0, u_a, u_b, u_c) <= 0 (exact predicates).
+/// The cotangent weights of step 1 can be negative, so it is not bijective in
+/// theory; when it leaves flipped triangles, the Tutte embedding (uniform
+/// positive weights: a bijection of the punctured sphere onto the triangle,
+/// Tutte 1963) replaces it, still Möbius-normalised, and any triangle that
+/// remains flipped after rounding (tiny triangles near the puncture) is
+/// repaired by local spherical Tutte relaxation (each vertex of a flipped
+/// triangle and its ring moves to the normalised mean of its neighbours).
+///
+/// Distortion: per triangle, the ratio σ_max/σ_min of the singular values of
+/// the linear map from the input triangle to the mapped (flat) triangle;
+/// 1 for a similarity.
+
+#include <string>
+
+#include "tet2spline/param/error.h"
+#include "tet2spline/param/progress.h"
+#include "tet2spline/param/tet_mesh.h"
+
+namespace tet2spline {
+
+struct SphericalMapOptions {
+  bool conformal = true;               ///< false: skip step 1 and use the Tutte embedding directly
+  double maxCentreOffset = 1e-6;       ///< Möbius normalisation stops when |c| is below this
+  int maxMobiusIterations = 100;
+  int maxRepairSweeps = 200;           ///< local relaxation sweeps for flipped triangles
+  ProgressCallback progress = {};      ///< called after each step; return false to stop
+};
+
+struct SphericalMapResult {
+  Eigen::MatrixX3d U;                  ///< #V × 3, unit vectors (|u| = 1 to rounding)
+  int flippedTriangles = 0;            ///< exact count, orient3d(0, a, b, c) <= 0
+  double angleDistortionMean = 0;      ///< mean over triangles of σ_max/σ_min
+  double angleDistortionMax = 0;
+  double centreOffset = 0;             ///< |Σ m_i u_i| / Σ m_i after normalisation
+  int mobiusIterations = 0;
+  std::string method;                  ///< "conformal", "tutte" or "tutte+repair"
+  Status status;                       ///< failure when flips remain or progress stopped it
+};
+
+/// `surface` must be one closed, consistently outward oriented, genus-0
+/// triangulated shell without unused vertices; otherwise throws
+/// Error(Topology) naming what was found.
+SphericalMapResult sphericalMap(const SurfaceMesh& surface, const SphericalMapOptions& options = {});
+
+/// Exact number of triangles F of U (#V × 3) with orient3d(0, U_a, U_b, U_c) <= 0.
+int countFlippedSphereTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F);
+
+/// Per-triangle σ_max/σ_min of the affine map from triangle f of (V, F) to
+/// triangle f of (U, F); +inf for a degenerate image. #F.
+Eigen::VectorXd triangleAngleDistortion(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& U,
+                                        const Eigen::MatrixX3i& F);
+
+}  // namespace tet2spline

@@ -1,0 +1,63 @@
+// The ball map on the ten genus-0 test surfaces meshed by TetGen (quality
+// 1.5), and on a solid with a filled void. Slow: run with the `slow` label.
+#include <gtest/gtest.h>
+
+#include <iostream>
+
+#include "test_data.h"
+#include "tet2spline/io/mesh_io.h"
+#include "tet2spline/param/ball_map.h"
+#include "tet2spline/param/tetrahedralize.h"
+#include "tet2spline/param/topology.h"
+
+using namespace tet2spline;
+
+namespace {
+
+void expectValidBallMap(const TetMesh& m, const BallMapResult& r, const std::string& name) {
+  EXPECT_TRUE(r.status.ok) << name << ": " << r.status.message;
+  EXPECT_EQ(r.sphere.flippedTriangles, 0) << name;
+  EXPECT_EQ(r.ball.invertedTets, 0) << name;
+  EXPECT_EQ(countNonPositiveTets(r.U, m.T), 0) << name;
+  EXPECT_LT(r.ball.harmonicResidual, 1e-8) << name;
+  EXPECT_LT(r.boundaryMaxDistance, 1e-12) << name;
+  EXPECT_LE(r.U.rowwise().norm().maxCoeff(), 1 + 1e-12) << name;
+  std::cout << name << ": " << m.V.rows() << " vertices, " << m.T.rows() << " tets, sphere " << r.sphere.method
+            << " distortion " << r.sphere.angleDistortionMean << "/" << r.sphere.angleDistortionMax << ", inverted "
+            << r.ball.invertedTetsBeforeUntangling << " -> " << r.ball.invertedTets << (r.ball.boundarySlid ? " (slid)" : "")
+            << ", seconds sphere " << r.timings.sphere << " harmonic " << r.timings.harmonic << " untangle "
+            << r.timings.untangle << std::endl;
+}
+
+}  // namespace
+
+class BallMapRealData : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(BallMapRealData, BijectiveOntoTheBall) {
+  const TetMesh m = tetrahedralize(readSurface(t2stest::cgalMesh(GetParam())), {}, GetParam());
+  expectValidBallMap(m, mapToBall(m), GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(Genus0, BallMapRealData,
+                         ::testing::Values("blob-closed", "part", "spool", "hand", "blobby", "triceratops", "fandisk",
+                                           "retinal", "homer", "bunny00"));
+
+TEST(BallMapRealData, SolidWithAFilledVoid) {
+  // blobby with a scaled, reversed copy of itself inside: the inner shell is a void.
+  const SurfaceMesh outer = readSurface(t2stest::cgalMesh("blobby"));
+  SurfaceMesh both = outer;
+  const Eigen::RowVector3d c = outer.V.colwise().mean();
+  both.V.resize(2 * outer.V.rows(), 3);
+  both.V.topRows(outer.V.rows()) = outer.V;
+  both.V.bottomRows(outer.V.rows()) = ((outer.V.rowwise() - c) * 0.3).rowwise() + c;
+  both.F.resize(2 * outer.F.rows(), 3);
+  both.F.topRows(outer.F.rows()) = outer.F;
+  for (Eigen::Index f = 0; f < outer.F.rows(); ++f)
+    both.F.row(outer.F.rows() + f) << outer.F(f, 0) + static_cast<int>(outer.V.rows()),
+        outer.F(f, 2) + static_cast<int>(outer.V.rows()), outer.F(f, 1) + static_cast<int>(outer.V.rows());
+  TetrahedralizeOptions o;
+  o.voids = true;
+  const TetMesh m = tetrahedralize(both, o, "blobby with void");
+  ASSERT_FALSE(m.voidRegions.empty());
+  expectValidBallMap(m, mapToBall(m), "blobby with void");
+}
