@@ -1,0 +1,28 @@
+#pragma once
+/// Mesh refinement that the maps need before they start.
+///
+/// A *chord* is an edge between two boundary vertices that is not itself a
+/// boundary edge: it runs through the inside of the solid. On the cube, the
+/// two ends of a chord can land on the same face, and then the tets around
+/// it (which must turn a full 360° around it) cannot all be positive: no
+/// untangling can repair them. A tet with four boundary vertices has such
+/// chords, and on the ball its shape is decided by the spherical map alone.
+/// Splitting every chord at its midpoint (a new interior vertex) removes
+/// both problems; TetGen meshes have chords at sharp features and in thin
+/// parts.
+
+#include "tet2spline/param/tet_mesh.h"
+
+namespace tet2spline {
+
+/// Splits every chord of the outer boundary (see above) at its midpoint.
+/// Each tet around a chord becomes two tets with the same region and cell
+/// fields; point fields of the new vertex are the mean of the chord's ends.
+/// Tets stay positively oriented. Returns the number of chords split (the
+/// number of new vertices, appended after the existing ones).
+int splitBoundaryChords(TetMesh& mesh);
+
+/// Number of chords of the outer boundary, for tests and reports.
+int countBoundaryChords(const TetMesh& mesh);
+
+}  // namespace tet2spline

@@ -1,0 +1,120 @@
+#include "tet2spline/param/refine.h"
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+#include "tet2spline/param/topology.h"
+
+namespace tet2spline {
+namespace {
+
+std::uint64_t edgeKey(int a, int b) {
+  if (a > b) std::swap(a, b);
+  return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b);
+}
+
+constexpr std::array<std::array<int, 2>, 6> kTetEdges{{{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}};
+
+// Chords in a deterministic order (by first appearance in T).
+std::vector<std::pair<int, int>> findChords(const TetMesh& mesh) {
+  const Eigen::MatrixX3i F = boundaryFaces(mesh);
+  std::vector<char> onBoundary(static_cast<size_t>(mesh.numVertices()), 0);
+  std::unordered_set<std::uint64_t> boundaryEdges;
+  boundaryEdges.reserve(static_cast<size_t>(F.rows()) * 2);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      onBoundary[static_cast<size_t>(F(f, k))] = 1;
+      boundaryEdges.insert(edgeKey(F(f, k), F(f, (k + 1) % 3)));
+    }
+  std::vector<std::pair<int, int>> chords;
+  std::unordered_set<std::uint64_t> seen;
+  for (Eigen::Index t = 0; t < mesh.numTets(); ++t)
+    for (const auto& e : kTetEdges) {
+      const int a = mesh.T(t, e[0]), b = mesh.T(t, e[1]);
+      if (!onBoundary[static_cast<size_t>(a)] || !onBoundary[static_cast<size_t>(b)]) continue;
+      const std::uint64_t key = edgeKey(a, b);
+      if (boundaryEdges.count(key) || !seen.insert(key).second) continue;
+      chords.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  return chords;
+}
+
+}  // namespace
+
+int countBoundaryChords(const TetMesh& mesh) { return static_cast<int>(findChords(mesh).size()); }
+
+int splitBoundaryChords(TetMesh& mesh) {
+  const std::vector<std::pair<int, int>> chords = findChords(mesh);
+  if (chords.empty()) return 0;
+
+  const Eigen::Index nv0 = mesh.numVertices(), nt0 = mesh.numTets();
+  const Eigen::Index nc = static_cast<Eigen::Index>(chords.size());
+  // Each chord adds one vertex, and one tet per tet around it (about 5).
+  std::vector<std::array<int, 4>> tets(static_cast<size_t>(nt0));
+  for (Eigen::Index t = 0; t < nt0; ++t) tets[t] = {mesh.T(t, 0), mesh.T(t, 1), mesh.T(t, 2), mesh.T(t, 3)};
+  std::vector<int> parent(static_cast<size_t>(nt0));  // original tet of each tet (region, cell fields)
+  for (Eigen::Index t = 0; t < nt0; ++t) parent[static_cast<size_t>(t)] = static_cast<int>(t);
+  std::vector<std::vector<int>> vertexTets(static_cast<size_t>(nv0 + nc));
+  for (Eigen::Index t = 0; t < nt0; ++t)
+    for (int k = 0; k < 4; ++k) vertexTets[static_cast<size_t>(mesh.T(t, k))].push_back(static_cast<int>(t));
+
+  Eigen::MatrixX3d V(nv0 + nc, 3);
+  V.topRows(nv0) = mesh.V;
+  std::vector<Field> pointFields = mesh.pointFields;
+  for (auto& f : pointFields) {
+    Eigen::MatrixXd values(nv0 + nc, f.values.cols());
+    values.topRows(nv0) = f.values;
+    f.values = std::move(values);
+  }
+
+  for (Eigen::Index c = 0; c < nc; ++c) {
+    const auto [a, b] = chords[static_cast<size_t>(c)];
+    const int m = static_cast<int>(nv0 + c);
+    V.row(m) = 0.5 * (V.row(a) + V.row(b));
+    for (auto& f : pointFields) f.values.row(m) = 0.5 * (f.values.row(a) + f.values.row(b));
+    // Tets around the chord: those of a that also hold b.
+    std::vector<int> around;
+    for (int t : vertexTets[static_cast<size_t>(a)]) {
+      const auto& q = tets[static_cast<size_t>(t)];
+      if (std::find(q.begin(), q.end(), b) != q.end()) around.push_back(t);
+    }
+    auto& tb = vertexTets[static_cast<size_t>(b)];
+    for (int t : around) {
+      // (.., a, .., b, ..) -> (.., a, .., m, ..) and (.., m, .., b, ..): m lies
+      // on segment ab, so both keep the orientation of the original tet.
+      std::array<int, 4> second = tets[static_cast<size_t>(t)];
+      for (int& v : tets[static_cast<size_t>(t)]) if (v == b) v = m;
+      for (int& v : second) if (v == a) v = m;
+      const int t2 = static_cast<int>(tets.size());
+      tets.push_back(second);
+      parent.push_back(parent[static_cast<size_t>(t)]);
+      tb.erase(std::find(tb.begin(), tb.end(), t));
+      for (int v : second) vertexTets[static_cast<size_t>(v)].push_back(t2);
+      vertexTets[static_cast<size_t>(m)].push_back(t);
+    }
+  }
+
+  const Eigen::Index nt = static_cast<Eigen::Index>(tets.size());
+  Eigen::MatrixX4i T(nt, 4);
+  Eigen::VectorXi region(nt);
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    for (int k = 0; k < 4; ++k) T(t, k) = tets[static_cast<size_t>(t)][static_cast<size_t>(k)];
+    region(t) = mesh.region(parent[static_cast<size_t>(t)]);
+  }
+  for (auto& f : mesh.cellFields) {
+    Eigen::MatrixXd values(nt, f.values.cols());
+    for (Eigen::Index t = 0; t < nt; ++t) values.row(t) = f.values.row(parent[static_cast<size_t>(t)]);
+    f.values = std::move(values);
+  }
+  mesh.V = std::move(V);
+  mesh.T = std::move(T);
+  mesh.region = std::move(region);
+  mesh.pointFields = std::move(pointFields);
+  return static_cast<int>(nc);
+}
+
+}  // namespace tet2spline
