@@ -73,5 +73,7 @@ json solidJson(const LoadedSolid& s);
 
 Command addCheckCommand(CLI::App& app);
 Command addMeshCommand(CLI::App& app);
+Command addParamCommand(CLI::App& app);
+Command addTransportCommand(CLI::App& app);
 
 }  // namespace tet2spline::cli

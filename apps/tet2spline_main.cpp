@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   std::vector<cli::Command> commands;
   commands.push_back(cli::addCheckCommand(app));
   commands.push_back(cli::addMeshCommand(app));
+  commands.push_back(cli::addParamCommand(app));
+  commands.push_back(cli::addTransportCommand(app));
 
   try {
     app.parse(argc, argv);

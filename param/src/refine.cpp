@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -71,17 +72,55 @@ int splitBoundaryChords(TetMesh& mesh) {
     f.values = std::move(values);
   }
 
+  // Position of the new vertex on the chord: the midpoint, unless a sliver
+  // around the chord would get a non-positive volume in floating point
+  // (the midpoint is rounded; later stages need vol > 0 in doubles): then
+  // the point of the chord, among a few, that keeps every new tet positive
+  // (exactly and in doubles) by the widest margin. No such point: the chord
+  // stays (rare; reported by the return value's shortfall).
+  auto tetVolume = [](const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
+                      const Eigen::Vector3d& p3) { return (p1 - p0).cross(p2 - p0).dot(p3 - p0); };
+  int split = 0;
+  Eigen::Index nvNew = nv0;
   for (Eigen::Index c = 0; c < nc; ++c) {
     const auto [a, b] = chords[static_cast<size_t>(c)];
-    const int m = static_cast<int>(nv0 + c);
-    V.row(m) = 0.5 * (V.row(a) + V.row(b));
-    for (auto& f : pointFields) f.values.row(m) = 0.5 * (f.values.row(a) + f.values.row(b));
     // Tets around the chord: those of a that also hold b.
     std::vector<int> around;
     for (int t : vertexTets[static_cast<size_t>(a)]) {
       const auto& q = tets[static_cast<size_t>(t)];
       if (std::find(q.begin(), q.end(), b) != q.end()) around.push_back(t);
     }
+    auto worst = [&](const Eigen::Vector3d& p) {
+      double margin = std::numeric_limits<double>::infinity();
+      for (int t : around) {
+        for (int side = 0; side < 2; ++side) {
+          std::array<Eigen::Vector3d, 4> x;
+          for (int k = 0; k < 4; ++k) {
+            const int v = tets[static_cast<size_t>(t)][static_cast<size_t>(k)];
+            x[static_cast<size_t>(k)] = (side == 0 ? v == b : v == a) ? p : Eigen::Vector3d(V.row(v));
+          }
+          if (orient3d(x[0].data(), x[1].data(), x[2].data(), x[3].data()) <= 0) return -1.0;
+          margin = std::min(margin, tetVolume(x[0], x[1], x[2], x[3]));
+        }
+      }
+      return margin;
+    };
+    const Eigen::Vector3d pa = V.row(a), pb = V.row(b);
+    double bestT = 0.5;
+    Eigen::Vector3d best = 0.5 * (pa + pb);
+    double bestMargin = worst(best);
+    if (!(bestMargin > 0)) {
+      for (double t : {0.45, 0.55, 0.4, 0.6, 0.35, 0.65, 0.3, 0.7, 0.25, 0.75}) {
+        const Eigen::Vector3d p = pa + t * (pb - pa);
+        const double m = worst(p);
+        if (m > bestMargin) bestMargin = m, best = p, bestT = t;
+      }
+    }
+    if (!(bestMargin > 0)) continue;
+    const int m = static_cast<int>(nvNew++);
+    ++split;
+    V.row(m) = best;
+    for (auto& f : pointFields) f.values.row(m) = (1 - bestT) * f.values.row(a) + bestT * f.values.row(b);
     auto& tb = vertexTets[static_cast<size_t>(b)];
     for (int t : around) {
       // (.., a, .., b, ..) -> (.., a, .., m, ..) and (.., m, .., b, ..): m lies
@@ -97,6 +136,8 @@ int splitBoundaryChords(TetMesh& mesh) {
       vertexTets[static_cast<size_t>(m)].push_back(t);
     }
   }
+  V.conservativeResize(nvNew, 3);
+  for (auto& f : pointFields) f.values.conservativeResize(nvNew, f.values.cols());
 
   const Eigen::Index nt = static_cast<Eigen::Index>(tets.size());
   Eigen::MatrixX4i T(nt, 4);
@@ -114,7 +155,7 @@ int splitBoundaryChords(TetMesh& mesh) {
   mesh.T = std::move(T);
   mesh.region = std::move(region);
   mesh.pointFields = std::move(pointFields);
-  return static_cast<int>(nc);
+  return split;
 }
 
 }  // namespace tet2spline

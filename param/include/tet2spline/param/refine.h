@@ -18,8 +18,11 @@ namespace tet2spline {
 /// Splits every chord of the outer boundary (see above) at its midpoint.
 /// Each tet around a chord becomes two tets with the same region and cell
 /// fields; point fields of the new vertex are the mean of the chord's ends.
-/// Tets stay positively oriented. Returns the number of chords split (the
-/// number of new vertices, appended after the existing ones).
+/// Tets stay positively oriented, exactly and in floating point: the new
+/// vertex is the midpoint unless rounding would flatten a sliver around the
+/// chord, then another point of the chord; a chord with no such point stays.
+/// Returns the number of chords split (the number of new vertices, appended
+/// after the existing ones).
 int splitBoundaryChords(TetMesh& mesh);
 
 /// Number of chords of the outer boundary, for tests and reports.

@@ -1,0 +1,129 @@
+// tet2spline transport POINTS -o OUT --domain {cube,ball}: semi-discrete OT of
+// a bare weighted point set (issue 4). POINTS: first line N, then N lines
+// "x y z mass" ('#' starts a comment). OUT: first line N, then per point
+// "psi cx cy cz" (weight and Laguerre-cell centroid), in input order.
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "cli_common.h"
+#include "tet2spline/io/atomic_file.h"
+#include "tet2spline/param/error.h"
+#include "tet2spline/param/optimal_transport.h"
+
+namespace tet2spline::cli {
+namespace {
+
+struct WeightedPoints {
+  Eigen::MatrixX3d points;
+  Eigen::VectorXd masses;
+};
+
+// Next non-empty, non-comment line; false at the end of the file.
+bool nextLine(std::istream& in, std::string& line, long& lineNo) {
+  while (std::getline(in, line)) {
+    ++lineNo;
+    const size_t hash = line.find('#');
+    if (hash != std::string::npos) line.resize(hash);
+    if (line.find_first_not_of(" \t\r") != std::string::npos) return true;
+  }
+  return false;
+}
+
+WeightedPoints readWeightedPoints(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(ErrorKind::Input, path + ": cannot open the file");
+  std::string line;
+  long lineNo = 0;
+  auto fail = [&](const std::string& what) { throw Error(ErrorKind::Input, path + ":" + std::to_string(lineNo) + ": " + what); };
+  if (!nextLine(in, line, lineNo)) throw Error(ErrorKind::Input, path + ": empty file (expected the number of points)");
+  std::istringstream head(line);
+  long n = 0;
+  std::string extra;
+  if (!(head >> n) || (head >> extra) || n <= 0 || n > 100000000) fail("expected the number of points (an integer > 0)");
+  WeightedPoints p;
+  p.points.resize(n, 3);
+  p.masses.resize(n);
+  for (long i = 0; i < n; ++i) {
+    if (!nextLine(in, line, lineNo))
+      throw Error(ErrorKind::Input, path + ": the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " points");
+    std::istringstream ls(line);
+    double x, y, z, m;
+    if (!(ls >> x >> y >> z >> m) || (ls >> extra)) fail("expected four numbers: x y z mass");
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) fail("coordinates must be finite");
+    if (!(std::isfinite(m) && m > 0)) fail("the mass must be a finite number > 0");
+    p.points.row(i) << x, y, z;
+    p.masses(i) = m;
+  }
+  if (nextLine(in, line, lineNo)) fail("more points than the " + std::to_string(n) + " announced on the first line");
+  return p;
+}
+
+}  // namespace
+
+Command addTransportCommand(CLI::App& app) {
+  struct Options {
+    std::string input, output, report, domain = "cube";
+    double tolerance = 1e-6;
+    int maxIterations = 100;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand("transport", "semi-discrete optimal transport from the cube or ball to weighted points");
+  cmd->add_option("POINTS", o->input, "text file: N, then N lines 'x y z mass'")->required();
+  cmd->add_option("-o,--output", o->output, "output text file: N, then N lines 'psi cx cy cz'")->required();
+  cmd->add_option("--domain", o->domain, "cube [0,1]^3 or the unit ball")->check(CLI::IsMember({"cube", "ball"}))->capture_default_str();
+  cmd->add_option("--tolerance", o->tolerance, "largest relative cell-mass error")->check(CLI::Range(1e-12, 0.5))->capture_default_str();
+  cmd->add_option("--max-iterations", o->maxIterations, "Newton iterations at most")->check(CLI::Range(1, 10000))->capture_default_str();
+  cmd->add_option("--report", o->report, "write the ot.* report as JSON here (it is printed on stdout too)");
+  cmd->add_flag("-q,--quiet", globals().quiet, "print no log lines");
+  return {cmd, [o]() {
+            requireWritableOutput(o->output);
+            if (!o->report.empty()) requireWritableOutput(o->report);
+            StageLog log(globals().quiet);
+            const WeightedPoints p = readWeightedPoints(o->input);
+            log.stage("load", std::to_string(p.points.rows()) + " points");
+            const Domain domain = o->domain == "ball" ? Domain::unitBall() : Domain::unitCube();
+            OptimalTransportOptions ot;
+            ot.maxRelativeMassError = o->tolerance;
+            ot.maxNewtonIterations = o->maxIterations;
+            ot.progress = log.progress("transport");
+            const OptimalTransportResult r = solveOptimalTransport(p.points, p.masses, domain, ot);
+            json j;
+            setPath(j, "points", p.points.rows());
+            setPath(j, "domain", o->domain);
+            setPath(j, "domain_volume", domain.volume());
+            setPath(j, "ot.iterations", r.iterations);
+            setPath(j, "ot.max_relative_mass_error", r.maxRelativeMassError);
+            setPath(j, "ot.step_sizes", r.stepSizes);
+            setPath(j, "ot.merged_points", r.mergedPoints);
+            setPath(j, "ot.converged", r.status.ok);
+            double tri = 0, clip = 0, lin = 0, total = r.startSeconds;
+            for (const auto& s : r.iterationStats) {
+              tri += s.triangulationSeconds, clip += s.clippingSeconds, lin += s.linearSolveSeconds;
+              total += s.triangulationSeconds + s.clippingSeconds + s.assemblySeconds + s.linearSolveSeconds;
+            }
+            setPath(j, "timings.transport", total);
+            setPath(j, "timings.transport_triangulation", tri);
+            setPath(j, "timings.transport_clipping", clip);
+            setPath(j, "timings.transport_linear_solve", lin);
+            std::cout << j.dump(2) << '\n';
+            if (!r.status.ok) throw Error(ErrorKind::Numerical, o->input + ": transport: " + r.status.message);
+            {
+              AtomicFile out(o->output);
+              out.stream() << std::setprecision(17) << r.weights.size() << '\n';
+              for (Eigen::Index i = 0; i < r.weights.size(); ++i)
+                out.stream() << r.weights(i) << ' ' << r.centroids(i, 0) << ' ' << r.centroids(i, 1) << ' '
+                             << r.centroids(i, 2) << '\n';
+              out.commit();
+            }
+            if (!o->report.empty()) writeJson(j, o->report);
+            log.stage("transport", std::to_string(r.iterations) + " Newton iterations, max relative mass error " +
+                                       std::to_string(r.maxRelativeMassError) + "; wrote " + o->output);
+            return 0;
+          }};
+}
+
+}  // namespace tet2spline::cli

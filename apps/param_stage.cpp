@@ -1,0 +1,147 @@
+#include "param_stage.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "tet2spline/param/error.h"
+#include "tet2spline/param/topology.h"
+
+namespace tet2spline::cli {
+
+void ParamStageOptions::addTo(CLI::App* cmd) {
+  cmd->add_option("--domain", domain, "parameter domain: cube (for tensor-product splines) or ball (the paper's)")
+      ->check(CLI::IsMember({"cube", "ball"}))->capture_default_str();
+  cmd->add_flag("--no-transport", noTransport, "stop at the harmonic ball map (no optimal transport; --domain ball)");
+  cmd->add_option("--density", densities,
+                  "R=W: region R gets W times the parametric volume per unit physical volume (repeatable)");
+  cmd->add_option("--density-field", densityField, "per-tet or per-vertex array of the input holding the density");
+  cmd->add_option("--void-density", voidDensity, "density of void regions (default: 1, as any region)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--tolerance", tolerance, "largest relative cell-mass error of the transport")
+      ->check(CLI::Range(1e-12, 0.5))->capture_default_str();
+  cmd->add_option("--max-iterations", maxIterations, "Newton iterations of the transport at most")
+      ->check(CLI::Range(1, 10000))->capture_default_str();
+}
+
+ParamOptions ParamStageOptions::toParamOptions() const {
+  ParamOptions o;
+  o.domain = domain == "ball" ? ParamDomain::Ball : ParamDomain::Cube;
+  o.transport = !noTransport;
+  for (const std::string& d : densities) {
+    const size_t eq = d.find('=');
+    std::istringstream rs(d.substr(0, eq == std::string::npos ? 0 : eq)), ws(eq == std::string::npos ? "" : d.substr(eq + 1));
+    int region = 0;
+    double w = 0;
+    char extra = 0;
+    if (eq == std::string::npos || !(rs >> region) || (rs >> extra) || !(ws >> w) || (ws >> extra))
+      throw Error(ErrorKind::Usage, "--density " + d + ": expected REGION=WEIGHT, e.g. --density 2=4");
+    if (!(std::isfinite(w) && w > 0)) throw Error(ErrorKind::Usage, "--density " + d + ": the weight must be > 0");
+    o.measure.regionDensity[region] = w;
+  }
+  o.measure.densityField = densityField;
+  o.measure.voidDensity = voidDensity;
+  o.transportOptions.maxRelativeMassError = tolerance;
+  o.transportOptions.maxNewtonIterations = maxIterations;
+  return o;
+}
+
+void addParamReport(json& j, const ParamResult& r) {
+  setPath(j, "param.chords_split", r.chordsSplit);
+  setPath(j, "param.vertices", r.mesh.numVertices());
+  setPath(j, "param.tets", r.mesh.numTets());
+  setPath(j, "param.domain_volume", r.domainVolume);
+  setPath(j, "param.domain_representation", r.domainRepresentation);
+  setPath(j, "sphere.flipped_triangles", r.sphere.flippedTriangles);
+  setPath(j, "sphere.angle_distortion_mean", r.sphere.angleDistortionMean);
+  setPath(j, "sphere.angle_distortion_max", r.sphere.angleDistortionMax);
+  setPath(j, "sphere.centre_offset", r.sphere.centreOffset);
+  setPath(j, "sphere.method", r.sphere.method);
+  setPath(j, "ball.inverted_tets_before_untangling", r.ball.invertedTetsBeforeUntangling);
+  setPath(j, "ball.inverted_tets", r.ball.invertedTets);
+  setPath(j, "ball.harmonic_residual", r.ball.harmonicResidual);
+  setPath(j, "ball.boundary_slid", r.ball.boundarySlid);
+  setPath(j, "ball.boundary_max_distance", r.ballBoundaryMaxDistance);
+  if (r.ot.ran) {
+    setPath(j, "ot.iterations", r.ot.iterations);
+    setPath(j, "ot.max_relative_mass_error", r.ot.maxRelativeMassError);
+    setPath(j, "ot.step_sizes", r.ot.stepSizes);
+    setPath(j, "ot.merged_points", r.ot.mergedPoints);
+    setPath(j, "ot.linear_solver", r.ot.linearSolver);
+  }
+  setPath(j, "param.inverted_tets_before_untangling", r.param.invertedTetsBeforeUntangling);
+  setPath(j, "param.inverted_tets", r.param.invertedTets);
+  setPath(j, "param.flipped_boundary_triangles", r.param.flippedBoundaryTriangles);
+  setPath(j, "param.boundary_max_distance", r.param.boundaryMaxDistance);
+  setPath(j, "param.corner_vertices", r.param.cornerVertices);
+  setPath(j, "param.edge_vertices", r.param.edgeVertices);
+  setPath(j, "param.volume_ratio", json{{"p1", r.param.volumeRatioP1}, {"p50", r.param.volumeRatioP50},
+                                        {"p99", r.param.volumeRatioP99}, {"min", r.param.volumeRatioMin},
+                                        {"max", r.param.volumeRatioMax}});
+  json regions = json::array();
+  for (const RegionFigures& g : r.regions)
+    regions.push_back({{"id", g.id}, {"void", g.isVoid}, {"physical_volume", g.physicalVolume}, {"density", g.density},
+                       {"target_volume_fraction", g.targetVolumeFraction},
+                       {"achieved_volume_fraction", g.achievedVolumeFraction}});
+  j["regions"] = regions;
+  setPath(j, "timings.refine", r.timings.refine);
+  setPath(j, "timings.spherical_map", r.timings.sphere);
+  setPath(j, "timings.harmonic", r.timings.harmonic);
+  setPath(j, "timings.untangle", r.timings.untangle);
+  setPath(j, "timings.measure", r.timings.measure);
+  if (r.ot.ran) {
+    setPath(j, "timings.transport", r.timings.transport);
+    setPath(j, "timings.transport_triangulation", r.ot.triangulationSeconds);
+    setPath(j, "timings.transport_clipping", r.ot.clippingSeconds);
+    setPath(j, "timings.transport_assembly", r.ot.assemblySeconds);
+    setPath(j, "timings.transport_linear_solve", r.ot.linearSolveSeconds);
+    setPath(j, "timings.composition", r.timings.composition);
+    setPath(j, "timings.final_untangle", r.timings.finalUntangle);
+  }
+  setPath(j, "timings.param", r.timings.total);
+}
+
+TetMesh paramOutputMesh(const ParamResult& r, bool mapped) {
+  TetMesh out = r.mesh;
+  const Eigen::Index nt = out.numTets();
+  if (mapped) {
+    out.pointFields.push_back({"X", r.mesh.V});
+    out.V = r.U;
+  } else {
+    out.pointFields.push_back({"U", r.U});
+  }
+  Eigen::MatrixXd ratio(nt, 1), target(nt, 1), inverted(nt, 1);
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    ratio(t, 0) = r.parametricVolume(t) / r.targetVolume(t);
+    target(t, 0) = r.targetVolume(t);
+    const Eigen::Vector3d a = r.U.row(out.T(t, 0)), b = r.U.row(out.T(t, 1)), c = r.U.row(out.T(t, 2)), d = r.U.row(out.T(t, 3));
+    inverted(t, 0) = orient3d(a.data(), b.data(), c.data(), d.data()) <= 0 ? 1 : 0;
+  }
+  out.cellFields.push_back({"volume_ratio", ratio});
+  out.cellFields.push_back({"target_volume", target});
+  out.cellFields.push_back({"inverted", inverted});
+  return out;
+}
+
+ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, const ParamStageOptions& options,
+                          StageLog& log, json& report) {
+  ParamOptions po = options.toParamOptions();
+  po.progress = log.progress("param");
+  ParamResult r = parameterize(mesh, po);
+  addParamReport(report, r);
+  std::ostringstream line;
+  line << (r.ot.ran ? options.domain : std::string("ball (harmonic)")) << ", " << r.mesh.numVertices() << " vertices";
+  if (r.chordsSplit) line << " (" << r.chordsSplit << " chords split)";
+  line << "; ball map " << r.ball.invertedTets << " inverted";
+  if (r.ot.ran) line << "; OT " << r.ot.iterations << " Newton iterations, mass error " << r.ot.maxRelativeMassError;
+  line << "; " << r.param.invertedTets << " inverted tets, volume ratio p1/p50/p99 " << r.param.volumeRatioP1 << '/'
+       << r.param.volumeRatioP50 << '/' << r.param.volumeRatioP99 << " in " << r.timings.total << " s";
+  log.stage("param", line.str());
+  if (!r.status.ok) {
+    if (const char* dump = std::getenv("T2S_FAILED_REPORT")) writeJson(report, dump);  // diagnostics of a failed run
+    throw Error(ErrorKind::Numerical, inputName + ": param: " + r.status.message);
+  }
+  return r;
+}
+
+}  // namespace tet2spline::cli

@@ -1,0 +1,121 @@
+#pragma once
+/// The measure-controlled parameterization (design.md, "Measure",
+/// "Semi-discrete optimal transport", "Composition and the boundary"; Su et
+/// al. 2016, §3–4): the whole param stage from a valid solid to U.
+///
+///   1. chords split (refine.h), so that no interior edge joins two boundary
+///      vertices (else the cube map cannot be valid);
+///   2. ball map (ball_map.h): spherical map, harmonic map, untangling;
+///   3. measure: per-tet density w_t (regions, a field, voids), vertex masses
+///      ν_i = Σ_{t∋i} w_t vol(t)/4 scaled to |Ω|;
+///   4. semi-discrete OT (optimal_transport.h) from Ω to the harmonic images
+///      (y = U_ball for the ball; y = ½ + ½·U_ball, the inscribed ball, for
+///      the cube) with masses ν;
+///   5. composition: every vertex moves to the centroid of its Laguerre cell;
+///      boundary vertices go onto ∂Ω: on the ball, radially onto the sphere;
+///      on the cube, the OT decides which boundary vertices take the 8
+///      corners and the 12 edges (the boundary vertex of least power
+///      distance |x − y_i|² − ψ_i owns each corner and each point of an
+///      edge), the others go to the nearest face. Then untangling with the
+///      boundary on ∂Ω (sliding on it where the untangler supports it).
+///
+/// Without transport (`transport = false`) the result is the harmonic ball
+/// map itself (domain must be the ball).
+
+#include <Eigen/Core>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "tet2spline/param/ball_map.h"
+#include "tet2spline/param/error.h"
+#include "tet2spline/param/optimal_transport.h"
+#include "tet2spline/param/progress.h"
+#include "tet2spline/param/tet_mesh.h"
+
+namespace tet2spline {
+
+enum class ParamDomain { Ball, Cube };
+
+/// Where the density comes from (design.md, "Measure"). Precedence per tet:
+/// void regions take `voidDensity` when set, else the field when named, else
+/// the region's density, else 1.
+struct MeasureOptions {
+  std::map<int, double> regionDensity;  ///< region tag -> W (> 0)
+  std::string densityField;             ///< per-tet or per-vertex field of the input (values > 0)
+  double voidDensity = 0;               ///< > 0: density of void tets; 0: as any other region
+};
+
+/// Per-tet densities w_t (#T). Throws Error(Usage) for a region that the
+/// mesh does not have, a field that it does not hold, or a density that is
+/// not finite and > 0 (Error(Input) when the bad value comes from a field).
+Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure);
+
+struct ParamOptions {
+  ParamDomain domain = ParamDomain::Cube;
+  bool transport = true;               ///< false: the harmonic ball map only (ball domain)
+  MeasureOptions measure;
+  BallMapOptions ballMap;
+  OptimalTransportOptions transportOptions;
+  int ballSubdivisions = 6;            ///< geodesic polytope level for the ball domain (power_diagram.h)
+  UntangleOptions untangle;            ///< for the final untangling
+  bool splitChords = true;             ///< step 1 (required for the cube)
+  ProgressCallback progress = {};      ///< fraction over the whole stage; false stops
+};
+
+struct RegionFigures {
+  int id = 0;
+  bool isVoid = false;
+  double physicalVolume = 0;
+  double density = 1;                  ///< mean w over the region (by volume)
+  double targetVolumeFraction = 0;     ///< Σ w vol over the region / Σ w vol
+  double achievedVolumeFraction = 0;   ///< parametric volume of the region / parametric volume of all
+};
+
+struct ParamResult {
+  TetMesh mesh;                        ///< the input after step 1 (more vertices and tets if chords were split)
+  Eigen::MatrixX3d U;                  ///< #V × 3: parameter of every vertex of `mesh`
+  Eigen::MatrixX3d ballU;              ///< #V × 3: the harmonic ball map
+  Eigen::VectorXi boundaryVertices;    ///< of the outer shell, ascending
+  Eigen::MatrixX3i boundaryFaces;      ///< outward triangles of the outer shell
+  Eigen::VectorXd targetVolume;        ///< per tet: |Ω| w_t vol_t / Σ w vol
+  Eigen::VectorXd parametricVolume;    ///< per tet: signed volume of the tet in U
+  int chordsSplit = 0;
+  double domainVolume = 0;             ///< |Ω| as represented (ball: the polytope)
+  std::string domainRepresentation;    ///< how Ω is represented, and its volume error
+
+  BallMapResult::Sphere sphere;
+  BallMapResult::Ball ball;
+  double ballBoundaryMaxDistance = 0;
+  struct Transport {
+    bool ran = false;
+    int iterations = 0;
+    double maxRelativeMassError = 0;
+    std::vector<double> stepSizes;
+    int mergedPoints = 0;
+    double triangulationSeconds = 0, clippingSeconds = 0, assemblySeconds = 0, linearSolveSeconds = 0;
+    std::string linearSolver;
+  } ot;
+  struct Figures {
+    int invertedTets = 0;              ///< exact, at the end
+    int invertedTetsBeforeUntangling = 0;
+    double boundaryMaxDistance = 0;    ///< largest distance of a boundary vertex to ∂Ω
+    double volumeRatioP1 = 0, volumeRatioP50 = 0, volumeRatioP99 = 0;  ///< parametric / target, per tet
+    double volumeRatioMin = 0, volumeRatioMax = 0;
+    int cornerVertices = 0, edgeVertices = 0;  ///< cube: boundary vertices put on corners / edges
+    int flippedBoundaryTriangles = 0;  ///< exact, boundary triangles flipped on ∂Ω (seen from its centre)
+  } param;
+  std::vector<RegionFigures> regions;
+  struct Timings {
+    double refine = 0, sphere = 0, harmonic = 0, untangle = 0, measure = 0, transport = 0, composition = 0,
+           finalUntangle = 0, total = 0;
+  } timings;
+  Status status;                       ///< failure when inversions remain, OT did not converge or it was stopped
+};
+
+/// Runs the stage on a valid solid (topology.h requireValidSolid). Throws
+/// Error(Usage) for bad options (unknown region, ball-less transport-free cube),
+/// Error(Topology) from the ball map; numerical trouble is a failed status.
+ParamResult parameterize(const TetMesh& mesh, const ParamOptions& options = {});
+
+}  // namespace tet2spline

@@ -1,0 +1,476 @@
+// The param stage: chords, ball map, measure, OT, composition, untangling.
+#include "tet2spline/param/parameterize.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "tet2spline/param/refine.h"
+#include "tet2spline/param/topology.h"
+
+namespace tet2spline {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+double signedVolume(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, Eigen::Index t) {
+  const Eigen::Vector3d a = X.row(T(t, 0)), b = X.row(T(t, 1)), c = X.row(T(t, 2)), d = X.row(T(t, 3));
+  return (b - a).cross(c - a).dot(d - a) / 6.0;
+}
+
+std::string formatDouble(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// Percentile (nearest rank on the sorted copy).
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return 0;
+  const size_t k = std::min(values.size() - 1, static_cast<size_t>(std::floor(p * static_cast<double>(values.size() - 1) + 0.5)));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+// ---- cube boundary -------------------------------------------------------
+// Place of a boundary vertex on the cube: `locks` has bit k when coordinate k
+// sits on a face (0 or 1); one bit = face, two = edge, three = corner.
+
+struct CubeEdge {
+  int axis;                 // the coordinate that varies along the edge
+  Eigen::Vector3d origin;   // the end with that coordinate 0
+};
+
+std::array<CubeEdge, 12> cubeEdges() {
+  std::array<CubeEdge, 12> edges{};
+  int n = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b) {
+        Eigen::Vector3d o = Eigen::Vector3d::Zero();
+        o((axis + 1) % 3) = a;
+        o((axis + 2) % 3) = b;
+        edges[static_cast<size_t>(n++)] = {axis, o};
+      }
+  return edges;
+}
+
+// Moves x onto the face of the cube nearest to it (x is inside the cube).
+std::uint8_t projectToNearestFace(Eigen::Vector3d& x) {
+  int best = 0;
+  double bestDistance = std::numeric_limits<double>::infinity();
+  double side = 0;
+  for (int j = 0; j < 3; ++j) {
+    x(j) = std::clamp(x(j), 0.0, 1.0);
+    if (x(j) < bestDistance) bestDistance = x(j), best = j, side = 0;
+    if (1 - x(j) < bestDistance) bestDistance = 1 - x(j), best = j, side = 1;
+  }
+  x(best) = side;
+  // Keep the other coordinates off the edges: the OT decides the edges.
+  for (int j = 0; j < 3; ++j)
+    if (j != best) x(j) = std::clamp(x(j), 1e-9, 1 - 1e-9);
+  return static_cast<std::uint8_t>(1u << best);
+}
+
+struct CubePlacement {
+  Eigen::MatrixX3d positions;     // rows of the boundary vertices (others untouched)
+  std::vector<std::uint8_t> locks;  // #V
+  int corners = 0, edges = 0;
+};
+
+// design.md: "on the cube the OT decides which boundary points land on the
+// 12 edges and 8 corners". A corner belongs to the boundary vertex whose
+// Laguerre cell holds it (least power distance among boundary vertices),
+// and so does every point of an edge; a vertex that owns part of an edge
+// goes to the middle of its part. The others go from their cell centroid
+// to the nearest face.
+CubePlacement placeOnCube(const Eigen::MatrixX3d& sites, const Eigen::VectorXd& psi, const Eigen::MatrixX3d& centroids,
+                          const Eigen::VectorXi& boundary, const Eigen::MatrixX3i& faces) {
+  const Eigen::Index nv = sites.rows();
+  CubePlacement out;
+  out.positions = centroids;
+  out.locks.assign(static_cast<size_t>(nv), 0);
+  const Eigen::Index nb = boundary.size();
+  auto power = [&](const Eigen::Vector3d& x, int i) { return (x - sites.row(i).transpose()).squaredNorm() - psi(i); };
+  auto owner = [&](const Eigen::Vector3d& x, const std::vector<int>& candidates) {
+    int best = -1;
+    double bestPower = std::numeric_limits<double>::infinity();
+    for (int i : candidates) {
+      const double p = power(x, i);
+      if (p < bestPower) bestPower = p, best = i;
+    }
+    return best;
+  };
+  std::vector<int> all(boundary.data(), boundary.data() + nb);
+
+  // Faces first, for every boundary vertex.
+  for (int i : all) {
+    Eigen::Vector3d x = centroids.row(i);
+    out.locks[static_cast<size_t>(i)] = projectToNearestFace(x);
+    out.positions.row(i) = x;
+  }
+
+  // Edges: sample each edge finely against the boundary cells near it.
+  const int samples = std::max(64, static_cast<int>(24 * std::sqrt(static_cast<double>(nb) / 6.0)));
+  std::vector<int> edgeOf(static_cast<size_t>(nv), -1), edgeCount(static_cast<size_t>(nv), 0);
+  std::vector<double> edgeT(static_cast<size_t>(nv), 0);
+  const auto edges = cubeEdges();
+  const double reach = std::min(0.5, 8.0 / std::sqrt(std::max<double>(1, static_cast<double>(nb) / 6.0)));
+  for (size_t e = 0; e < edges.size(); ++e) {
+    const CubeEdge& edge = edges[e];
+    std::vector<int> near;
+    for (int i : all) {
+      Eigen::Vector3d d = centroids.row(i).transpose() - edge.origin;
+      d(edge.axis) = 0;
+      if (d.norm() < reach) near.push_back(i);
+    }
+    if (near.empty()) near = all;
+    std::vector<int> count(near.size(), 0);
+    std::vector<double> sumT(near.size(), 0);
+    std::vector<int> local(static_cast<size_t>(nv), -1);
+    for (size_t k = 0; k < near.size(); ++k) local[static_cast<size_t>(near[k])] = static_cast<int>(k);
+    for (int s = 0; s < samples; ++s) {
+      const double t = (s + 0.5) / samples;
+      Eigen::Vector3d x = edge.origin;
+      x(edge.axis) = t;
+      const int i = owner(x, near);
+      const int k = local[static_cast<size_t>(i)];
+      ++count[static_cast<size_t>(k)];
+      sumT[static_cast<size_t>(k)] += t;
+    }
+    for (size_t k = 0; k < near.size(); ++k) {
+      const int i = near[k];
+      if (count[k] > edgeCount[static_cast<size_t>(i)]) {
+        edgeCount[static_cast<size_t>(i)] = count[k];
+        edgeOf[static_cast<size_t>(i)] = static_cast<int>(e);
+        edgeT[static_cast<size_t>(i)] = sumT[k] / count[k];
+      }
+    }
+  }
+  auto putOnEdge = [&](int i) {
+    const CubeEdge& edge = edges[static_cast<size_t>(edgeOf[static_cast<size_t>(i)])];
+    Eigen::Vector3d x = edge.origin;
+    x(edge.axis) = std::clamp(edgeT[static_cast<size_t>(i)], 1e-9, 1 - 1e-9);
+    out.positions.row(i) = x;
+    out.locks[static_cast<size_t>(i)] = static_cast<std::uint8_t>(7u & ~(1u << edge.axis));
+  };
+  for (int i : all)
+    if (edgeOf[static_cast<size_t>(i)] >= 0) putOnEdge(i);
+
+  // Corners: the owner among boundary vertices.
+  std::vector<char> isCorner(static_cast<size_t>(nv), 0);
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d q(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    const int i = owner(q, all);
+    if (isCorner[static_cast<size_t>(i)]) continue;  // a vertex owning two corners keeps the first
+    isCorner[static_cast<size_t>(i)] = 1;
+    out.positions.row(i) = q;
+    out.locks[static_cast<size_t>(i)] = 7;
+  }
+
+  // A boundary triangle with its three vertices on one edge line would be
+  // flat: send the edge vertex with the smallest share of the edge back to
+  // its face until there is none.
+  auto lineKey = [&](int i) -> int {  // edge line of a vertex on an edge or corner, else -1
+    const std::uint8_t l = out.locks[static_cast<size_t>(i)];
+    if (l == 7) return 100 + static_cast<int>(i);  // corners: handled pairwise below
+    if (__builtin_popcount(l) != 2) return -1;
+    return edgeOf[static_cast<size_t>(i)];
+  };
+  auto onLine = [&](int i, int e) {
+    const CubeEdge& edge = edges[static_cast<size_t>(e)];
+    for (int j = 0; j < 3; ++j)
+      if (j != edge.axis && out.positions(i, j) != edge.origin(j)) return false;
+    return true;
+  };
+  for (int pass = 0; pass < 100; ++pass) {
+    bool changed = false;
+    for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+      int line = -1;
+      for (int k = 0; k < 3 && line < 0; ++k) {
+        const int key = lineKey(faces(f, k));
+        if (key >= 0 && key < 100) line = key;
+      }
+      if (line < 0) continue;
+      if (!onLine(faces(f, 0), line) || !onLine(faces(f, 1), line) || !onLine(faces(f, 2), line)) continue;
+      int victim = -1;
+      for (int k = 0; k < 3; ++k) {
+        const int i = faces(f, k);
+        if (out.locks[static_cast<size_t>(i)] == 7) continue;
+        if (victim < 0 || edgeCount[static_cast<size_t>(i)] < edgeCount[static_cast<size_t>(victim)]) victim = i;
+      }
+      if (victim < 0) continue;
+      Eigen::Vector3d x = centroids.row(victim);
+      const CubeEdge& edge = edges[static_cast<size_t>(line)];
+      // The nearer of the edge's two faces.
+      const int a = (edge.axis + 1) % 3, b = (edge.axis + 2) % 3;
+      const double da = std::abs(x(a) - edge.origin(a)), db = std::abs(x(b) - edge.origin(b));
+      const int j = da <= db ? a : b, other = da <= db ? b : a;
+      x(j) = edge.origin(j);
+      for (int m = 0; m < 3; ++m) if (m != j) x(m) = std::clamp(x(m), 1e-9, 1 - 1e-9);
+      (void)other;
+      out.positions.row(victim) = x;
+      out.locks[static_cast<size_t>(victim)] = static_cast<std::uint8_t>(1u << j);
+      edgeOf[static_cast<size_t>(victim)] = -1;
+      changed = true;
+    }
+    if (!changed) break;
+  }
+  for (int i : all) {
+    const int bits = __builtin_popcount(out.locks[static_cast<size_t>(i)]);
+    out.corners += bits == 3;
+    out.edges += bits == 2;
+  }
+  return out;
+}
+
+int countFlippedBoundaryTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, const Eigen::Vector3d& apex) {
+  int flipped = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = U.row(F(f, 0)), b = U.row(F(f, 1)), c = U.row(F(f, 2));
+    flipped += orient3d(apex.data(), a.data(), b.data(), c.data()) <= 0;
+  }
+  return flipped;
+}
+
+}  // namespace
+
+Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure) {
+  const Eigen::Index nt = mesh.numTets();
+  Eigen::VectorXd w = Eigen::VectorXd::Ones(nt);
+  for (const auto& [id, density] : measure.regionDensity) {
+    if (!(std::isfinite(density) && density > 0))
+      throw Error(ErrorKind::Usage, "--density " + std::to_string(id) + "=" + formatDouble(density) +
+                                        ": the density must be a finite number > 0");
+    bool found = false;
+    for (Eigen::Index t = 0; t < nt; ++t)
+      if (mesh.region(t) == id) w(t) = density, found = true;
+    if (!found) {
+      std::string have;
+      std::vector<int> ids(mesh.region.data(), mesh.region.data() + nt);
+      std::sort(ids.begin(), ids.end());
+      ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+      for (int r : ids) have += (have.empty() ? "" : ", ") + std::to_string(r);
+      throw Error(ErrorKind::Usage, "--density " + std::to_string(id) + "=...: the solid has no region " +
+                                        std::to_string(id) + " (its regions: " + have + ")");
+    }
+  }
+  if (!measure.densityField.empty()) {
+    const Field* cell = mesh.cellField(measure.densityField);
+    const Field* point = cell ? nullptr : mesh.pointField(measure.densityField);
+    if (!cell && !point)
+      throw Error(ErrorKind::Usage, "--density-field " + measure.densityField + ": the input has no such point or cell array");
+    const Field& f = cell ? *cell : *point;
+    if (f.values.cols() != 1)
+      throw Error(ErrorKind::Usage, "--density-field " + measure.densityField + ": the array has " +
+                                        std::to_string(f.values.cols()) + " components; a density needs 1");
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      double v = 0;
+      if (cell) {
+        v = f.values(t, 0);
+      } else {
+        for (int k = 0; k < 4; ++k) v += f.values(mesh.T(t, k), 0) / 4;
+      }
+      if (!(std::isfinite(v) && v > 0))
+        throw Error(ErrorKind::Input, "density field " + measure.densityField + ": value " + formatDouble(v) + " at " +
+                                          (cell ? "tet " : "a tet of vertex mean ") + std::to_string(t) +
+                                          " is not a finite number > 0");
+      w(t) = v;
+    }
+  }
+  if (measure.voidDensity > 0) {
+    if (!std::isfinite(measure.voidDensity))
+      throw Error(ErrorKind::Usage, "--void-density must be a finite number > 0");
+    for (Eigen::Index t = 0; t < nt; ++t)
+      if (mesh.voidRegions.count(mesh.region(t))) w(t) = measure.voidDensity;
+  } else if (measure.voidDensity < 0) {
+    throw Error(ErrorKind::Usage, "--void-density must be a finite number > 0");
+  }
+  return w;
+}
+
+ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
+  const auto start = Clock::now();
+  if (!options.transport && options.domain != ParamDomain::Ball)
+    throw Error(ErrorKind::Usage, "without transport the parameterization is the harmonic ball map: use --domain ball");
+  ParamResult r;
+  auto report = [&](double fraction, const std::string& what) {
+    if (options.progress && !options.progress(fraction, what)) throw Status::failure("stopped during " + what);
+  };
+
+  try {
+    // 1. chords
+    auto t0 = Clock::now();
+    r.mesh = input;
+    if (options.splitChords) r.chordsSplit = splitBoundaryChords(r.mesh);
+    r.timings.refine = secondsSince(t0);
+    const TetMesh& mesh = r.mesh;
+    const Eigen::Index nv = mesh.numVertices(), nt = mesh.numTets();
+    report(0.01, r.chordsSplit ? "split " + std::to_string(r.chordsSplit) + " boundary chords" : "no boundary chords");
+
+    // 2. ball map
+    BallMapOptions ballOptions = options.ballMap;
+    ballOptions.progress = [&](double f, const std::string& m) {
+      return !options.progress || options.progress(f >= 0 ? 0.01 + 0.29 * f : -1, m);
+    };
+    BallMapResult ball = mapToBall(mesh, ballOptions);
+    r.ballU = ball.U;
+    r.boundaryVertices = ball.boundaryVertices;
+    r.boundaryFaces = ball.boundaryFaces;
+    r.sphere = ball.sphere;
+    r.ball = ball.ball;
+    r.ballBoundaryMaxDistance = ball.boundaryMaxDistance;
+    r.timings.sphere = ball.timings.sphere + ball.timings.boundary;
+    r.timings.harmonic = ball.timings.harmonic;
+    r.timings.untangle = ball.timings.untangle;
+    if (!ball.status.ok) throw Status::failure(ball.status.message);
+
+    // 3. measure
+    t0 = Clock::now();
+    const Eigen::VectorXd w = tetDensities(mesh, options.measure);
+    Eigen::VectorXd physical(nt), weighted(nt);
+    for (Eigen::Index t = 0; t < nt; ++t) physical(t) = signedVolume(mesh.V, mesh.T, t), weighted(t) = w(t) * physical(t);
+    const double totalWeighted = weighted.sum();
+    const Domain domain = options.domain == ParamDomain::Cube ? Domain::unitCube() : Domain::unitBall(options.ballSubdivisions);
+    r.domainVolume = options.transport ? domain.volume() : 4.0 * M_PI / 3.0;
+    r.domainRepresentation =
+        options.domain == ParamDomain::Cube
+            ? "unit cube [0,1]^3, exact"
+            : "unit ball: OT on the circumscribed polytope of " + std::to_string(domain.planeNormals().rows()) +
+                  " tangent planes (volume error " + formatDouble(domain.volume() / (4.0 * M_PI / 3.0) - 1) +
+                  " relative); boundary vertices projected radially onto the sphere";
+    r.targetVolume = weighted * (r.domainVolume / totalWeighted);
+    Eigen::VectorXd masses = Eigen::VectorXd::Zero(nv);
+    for (Eigen::Index t = 0; t < nt; ++t)
+      for (int k = 0; k < 4; ++k) masses(mesh.T(t, k)) += r.targetVolume(t) / 4;
+    r.timings.measure = secondsSince(t0);
+
+    if (!options.transport) {
+      r.U = r.ballU;
+    } else {
+      // 4. transport
+      t0 = Clock::now();
+      Eigen::MatrixX3d sites = r.ballU;
+      if (options.domain == ParamDomain::Cube) sites = (0.5 * sites.array() + 0.5).matrix();
+      OptimalTransportOptions ot = options.transportOptions;
+      ot.progress = [&](double f, const std::string& m) {
+        return !options.progress || options.progress(f >= 0 ? 0.3 + 0.6 * f : -1, m);
+      };
+      OptimalTransportResult transport = solveOptimalTransport(sites, masses, domain, ot);
+      r.ot.ran = true;
+      r.ot.iterations = transport.iterations;
+      r.ot.maxRelativeMassError = transport.maxRelativeMassError;
+      r.ot.stepSizes = transport.stepSizes;
+      r.ot.mergedPoints = transport.mergedPoints;
+      for (const auto& s : transport.iterationStats) {
+        r.ot.triangulationSeconds += s.triangulationSeconds;
+        r.ot.clippingSeconds += s.clippingSeconds;
+        r.ot.assemblySeconds += s.assemblySeconds;
+        r.ot.linearSolveSeconds += s.linearSolveSeconds;
+      }
+      switch (ot.linearSolver) {
+        case OtLinearSolver::ConjugateGradient: r.ot.linearSolver = "jacobi-cg"; break;
+        case OtLinearSolver::IncompleteCholeskyCG: r.ot.linearSolver = "ichol-cg"; break;
+        case OtLinearSolver::Cholmod: r.ot.linearSolver = "cholmod"; break;
+      }
+      r.timings.transport = secondsSince(t0);
+      if (!transport.status.ok) throw Status::failure("optimal transport: " + transport.status.message);
+
+      // 5. composition
+      t0 = Clock::now();
+      report(0.9, "composition");
+      r.U = transport.centroids;
+      std::vector<bool> fixed(static_cast<size_t>(nv), false);
+      for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) fixed[static_cast<size_t>(r.boundaryVertices(k))] = true;
+      std::vector<std::uint8_t> locks;
+      if (options.domain == ParamDomain::Cube) {
+        CubePlacement placed = placeOnCube(sites, transport.weights, transport.centroids, r.boundaryVertices, r.boundaryFaces);
+        for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k)
+          r.U.row(r.boundaryVertices(k)) = placed.positions.row(r.boundaryVertices(k));
+        r.param.cornerVertices = placed.corners;
+        r.param.edgeVertices = placed.edges;
+        locks = std::move(placed.locks);
+      } else {
+        for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) {
+          const int i = r.boundaryVertices(k);
+          const double n = r.U.row(i).norm();
+          r.U.row(i) = n > 0 ? Eigen::RowVector3d(r.U.row(i) / n) : Eigen::RowVector3d(r.ballU.row(i));
+        }
+      }
+      r.timings.composition = secondsSince(t0);
+
+      // 6. untangling with the boundary on ∂Ω
+      t0 = Clock::now();
+      UntangleOptions untangleOptions = options.untangle;
+      untangleOptions.progress = [&](double, const std::string& m) {
+        return !options.progress || options.progress(-1, "untangle: " + m);
+      };
+      UntangleResult untangled = untangle(mesh.V, mesh.T, r.U, fixed, untangleOptions);
+      r.param.invertedTetsBeforeUntangling = untangled.invertedBefore;
+      if (untangled.invertedAfter > 0 && options.domain == ParamDomain::Ball) {
+        // Let the boundary slide on the sphere (flips of its triangles kept out).
+        untangleOptions.sphereFaces = r.boundaryFaces;
+        std::fill(fixed.begin(), fixed.end(), false);
+        untangled = untangle(mesh.V, mesh.T, untangled.U, fixed, untangleOptions);
+      }
+      r.U = std::move(untangled.U);
+      r.timings.finalUntangle = secondsSince(t0);
+    }
+
+    // Figures.
+    r.param.invertedTets = countNonPositiveTets(r.U, mesh.T);
+    const Eigen::Vector3d apex = options.domain == ParamDomain::Cube ? Eigen::Vector3d(0.5, 0.5, 0.5) : Eigen::Vector3d::Zero();
+    r.param.flippedBoundaryTriangles = countFlippedBoundaryTriangles(r.U, r.boundaryFaces, apex);
+    for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) {
+      const Eigen::Vector3d u = r.U.row(r.boundaryVertices(k));
+      double d = 0;
+      if (options.domain == ParamDomain::Ball) {
+        d = std::abs(u.norm() - 1);
+      } else {
+        const double outside = (u.array() - u.array().min(1.0).max(0.0)).matrix().norm();
+        const double toFace = std::min(u.minCoeff(), (1 - u.array()).minCoeff());
+        d = std::max(outside, std::abs(toFace));
+      }
+      r.param.boundaryMaxDistance = std::max(r.param.boundaryMaxDistance, d);
+    }
+    r.parametricVolume.resize(nt);
+    std::vector<double> ratios(static_cast<size_t>(nt));
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      r.parametricVolume(t) = signedVolume(r.U, mesh.T, t);
+      ratios[static_cast<size_t>(t)] = r.parametricVolume(t) / r.targetVolume(t);
+    }
+    r.param.volumeRatioP1 = percentile(ratios, 0.01);
+    r.param.volumeRatioP50 = percentile(ratios, 0.5);
+    r.param.volumeRatioP99 = percentile(ratios, 0.99);
+    r.param.volumeRatioMin = *std::min_element(ratios.begin(), ratios.end());
+    r.param.volumeRatioMax = *std::max_element(ratios.begin(), ratios.end());
+    std::map<int, RegionFigures> regions;
+    std::map<int, double> regionWeighted;
+    const double totalParametric = r.parametricVolume.sum();
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      RegionFigures& g = regions[mesh.region(t)];
+      g.id = mesh.region(t);
+      g.isVoid = mesh.voidRegions.count(g.id) > 0;
+      g.physicalVolume += physical(t);
+      regionWeighted[g.id] += weighted(t);
+      g.targetVolumeFraction += weighted(t) / totalWeighted;
+      g.achievedVolumeFraction += r.parametricVolume(t) / totalParametric;
+    }
+    for (auto& [id, g] : regions) {
+      g.density = regionWeighted[id] / g.physicalVolume;
+      r.regions.push_back(g);
+    }
+    if (r.param.invertedTets > 0)
+      r.status = Status::failure(std::to_string(r.param.invertedTets) + " tets of the parameterization remain inverted");
+  } catch (const Status& stopped) {
+    r.status = stopped;
+  }
+  r.timings.total = secondsSince(start);
+  return r;
+}
+
+}  // namespace tet2spline

@@ -1,0 +1,131 @@
+// tet2spline param and transport as a user runs them: usage errors, the
+// report's keys and what they must say (design.md, issues 3 and 4).
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
+#include "tet2spline/io/mesh_io.h"
+#include "tet2spline/param/topology.h"
+
+namespace fs = std::filesystem;
+using t2stest::runCli;
+using json = nlohmann::json;
+
+namespace {
+std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+}  // namespace
+
+TEST(CliParam, BadOptionsExitWithStatus2BeforeAnyWork) {
+  const auto dir = t2stest::scratchDir("cli_param_usage");
+  const std::string in = q(t2stest::cgalMesh("blob-closed"));
+  for (const std::string args :
+       {"param " + in + " -o x.vtu --domain disk", "param " + in + " -o x.vtu --density 2",
+        "param " + in + " -o x.vtu --density a=4", "param " + in + " -o x.vtu --density 2=-1",
+        "param " + in + " -o x.vtu --no-transport --domain cube", "param " + in + " -o x.mesh",
+        "param " + in + " -o x.vtu --density 7=2" /* no region 7 */}) {
+    const auto r = runCli(args + " -q", dir);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
+    EXPECT_EQ(r.errLines(), 1) << r.err;
+  }
+  EXPECT_TRUE(t2stest::listDir(dir).empty());
+}
+
+TEST(CliParam, HarmonicBallMapWithoutTransport) {
+  const auto dir = t2stest::scratchDir("cli_param_ball");
+  const auto out = dir / "ball.vtu", rep = dir / "r.json", mapped = dir / "mapped.vtu";
+  const auto r = runCli("param " + q(t2stest::cgalMesh("blob-closed")) + " -o " + q(out) +
+                            " --domain ball --no-transport -q --report " + q(rep),
+                        dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(t2stest::slurp(rep));
+  for (const char* key : {"sphere", "ball", "param", "timings"}) EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["sphere"]["flipped_triangles"], 0);
+  EXPECT_EQ(j["ball"]["inverted_tets"], 0);
+  EXPECT_LT(j["ball"]["harmonic_residual"].get<double>(), 1e-8);
+  EXPECT_LT(j["param"]["boundary_max_distance"].get<double>(), 1e-12);
+  for (const char* key : {"spherical_map", "harmonic", "untangle"}) EXPECT_TRUE(j["timings"].contains(key)) << key;
+  EXPECT_FALSE(j.contains("ot"));
+  // The file holds U; the ball coordinates are positive tets inside the ball.
+  const tet2spline::TetMesh m = tet2spline::readTetMesh(out.string());
+  const tet2spline::Field* U = m.pointField("U");
+  ASSERT_NE(U, nullptr);
+  ASSERT_EQ(U->values.cols(), 3);
+  EXPECT_EQ(tet2spline::countNonPositiveTets(Eigen::MatrixX3d(U->values), m.T), 0);
+  EXPECT_LE(U->values.rowwise().norm().maxCoeff(), 1 + 1e-12);
+  // --mapped writes the mesh at U with the physical positions as X.
+  ASSERT_EQ(runCli("param " + q(t2stest::cgalMesh("blob-closed")) + " -o " + q(mapped) +
+                       " --domain ball --no-transport -q --mapped",
+                   dir).status,
+            0);
+  const tet2spline::TetMesh mm = tet2spline::readTetMesh(mapped.string());
+  ASSERT_NE(mm.pointField("X"), nullptr);
+  EXPECT_LT((mm.V - Eigen::MatrixX3d(U->values)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(CliParam, BallTransportConservesMassAndKeepsTheBoundaryOnTheSphere) {
+  const auto dir = t2stest::scratchDir("cli_param_ot_ball");
+  const auto out = dir / "p.vtu", rep = dir / "r.json";
+  const auto r = runCli("param " + q(t2stest::cgalMesh("blob-closed")) + " -o " + q(out) + " --domain ball -q --report " + q(rep), dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(t2stest::slurp(rep));
+  EXPECT_LE(j["ot"]["max_relative_mass_error"].get<double>(), 1e-6);
+  EXPECT_EQ(j["ot"]["step_sizes"].size(), j["ot"]["iterations"].get<size_t>());
+  EXPECT_EQ(j["param"]["inverted_tets"], 0);
+  EXPECT_LT(j["param"]["boundary_max_distance"].get<double>(), 1e-12);
+  ASSERT_EQ(j["regions"].size(), 1u);
+  EXPECT_NEAR(j["regions"][0]["achieved_volume_fraction"].get<double>(), 1.0, 1e-12);
+  const auto vr = j["param"]["volume_ratio"];
+  EXPECT_LE(vr["p1"].get<double>(), vr["p50"].get<double>());
+  EXPECT_LE(vr["p50"].get<double>(), vr["p99"].get<double>());
+  for (const char* key : {"transport", "transport_triangulation", "transport_clipping", "transport_linear_solve"})
+    EXPECT_TRUE(j["timings"].contains(key)) << key;
+  const tet2spline::TetMesh m = tet2spline::readTetMesh(out.string());
+  for (const char* field : {"volume_ratio", "inverted"}) EXPECT_NE(m.cellField(field), nullptr) << field;
+}
+
+TEST(CliTransport, EqualMassesOnAGridGiveEqualCellsAndConstantWeights) {
+  const auto dir = t2stest::scratchDir("cli_transport_grid");
+  const auto in = dir / "grid.txt", out = dir / "w.txt";
+  {
+    std::ofstream f(in);
+    f << "64\n# 4x4x4 cell centres\n";
+    for (int k = 0; k < 4; ++k)
+      for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) f << (i + 0.5) / 4 << ' ' << (j + 0.5) / 4 << ' ' << (k + 0.5) / 4 << " 3.5\n";
+  }
+  const auto r = runCli("transport " + q(in) + " -o " + q(out) + " --domain cube -q", dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(r.out);
+  EXPECT_LE(j["ot"]["max_relative_mass_error"].get<double>(), 1e-6);
+  std::ifstream f(out);
+  int n = 0;
+  f >> n;
+  ASSERT_EQ(n, 64);
+  double psi0 = 0;
+  for (int i = 0; i < n; ++i) {
+    double psi, x, y, z;
+    f >> psi >> x >> y >> z;
+    if (i == 0) psi0 = psi;
+    EXPECT_NEAR(psi, psi0, 1e-7);  // mass error 1e-6 moves facets by ~1e-7
+    EXPECT_NEAR(x, ((i % 4) + 0.5) / 4, 1e-7);  // the centroid of its own cube cell
+  }
+}
+
+TEST(CliTransport, MalformedPointFilesNameFileAndLine) {
+  const auto dir = t2stest::scratchDir("cli_transport_bad");
+  struct Case { std::string name, text, cause; };
+  for (const Case& c : std::vector<Case>{{"empty.txt", "", "empty"},
+                                         {"count.txt", "two\n", ":1:"},
+                                         {"short.txt", "3\n0 0 0 1\n0.5 0.5 0.5 1\n", "ends after 2 of 3"},
+                                         {"mass.txt", "2\n0.1 0.1 0.1 1\n0.2 0.2 0.2 -1\n", ":3: the mass"},
+                                         {"nan.txt", "1\nnan 0 0 1\n", ":2: coordinates"}}) {
+    std::ofstream(dir / c.name) << c.text;
+    const auto r = runCli("transport " + q(dir / c.name) + " -o " + q(dir / "out.txt"), dir);
+    EXPECT_EQ(r.status, 3) << c.name << ": " << r.err;
+    EXPECT_EQ(r.errLines(), 1) << r.err;
+    EXPECT_NE(r.err.find(c.cause), std::string::npos) << c.name << ": " << r.err;
+    EXPECT_FALSE(fs::exists(dir / "out.txt"));
+  }
+}
