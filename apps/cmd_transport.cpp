@@ -3,6 +3,7 @@
 // "x y z mass" ('#' starts a comment). OUT: first line N, then per point
 // "psi cx cy cz" (weight and Laguerre-cell centroid), in input order.
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -50,9 +51,18 @@ WeightedPoints readWeightedPoints(const std::string& path) {
   for (long i = 0; i < n; ++i) {
     if (!nextLine(in, line, lineNo))
       throw Error(ErrorKind::Input, path + ": the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " points");
-    std::istringstream ls(line);
-    double x, y, z, m;
-    if (!(ls >> x >> y >> z >> m) || (ls >> extra)) fail("expected four numbers: x y z mass");
+    // strtod, not >>, so that nan and inf are read and then refused by name.
+    double v[4];
+    const char* p = line.c_str();
+    for (double& value : v) {
+      char* end = nullptr;
+      value = std::strtod(p, &end);
+      if (end == p) fail("expected four numbers: x y z mass");
+      p = end;
+    }
+    while (*p == ' ' || *p == '\t' || *p == '\r') ++p;
+    if (*p) fail("expected four numbers: x y z mass");
+    const double x = v[0], y = v[1], z = v[2], m = v[3];
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) fail("coordinates must be finite");
     if (!(std::isfinite(m) && m > 0)) fail("the mass must be a finite number > 0");
     p.points.row(i) << x, y, z;
