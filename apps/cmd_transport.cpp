@@ -53,15 +53,15 @@ WeightedPoints readWeightedPoints(const std::string& path) {
       throw Error(ErrorKind::Input, path + ": the file ends after " + std::to_string(i) + " of " + std::to_string(n) + " points");
     // strtod, not >>, so that nan and inf are read and then refused by name.
     double v[4];
-    const char* p = line.c_str();
+    const char* cursor = line.c_str();
     for (double& value : v) {
       char* end = nullptr;
-      value = std::strtod(p, &end);
-      if (end == p) fail("expected four numbers: x y z mass");
-      p = end;
+      value = std::strtod(cursor, &end);
+      if (end == cursor) fail("expected four numbers: x y z mass");
+      cursor = end;
     }
-    while (*p == ' ' || *p == '\t' || *p == '\r') ++p;
-    if (*p) fail("expected four numbers: x y z mass");
+    while (*cursor == ' ' || *cursor == '\t' || *cursor == '\r') ++cursor;
+    if (*cursor) fail("expected four numbers: x y z mass");
     const double x = v[0], y = v[1], z = v[2], m = v[3];
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) fail("coordinates must be finite");
     if (!(std::isfinite(m) && m > 0)) fail("the mass must be a finite number > 0");
