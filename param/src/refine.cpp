@@ -1,5 +1,6 @@
 #include "tet2spline/param/refine.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cstdint>

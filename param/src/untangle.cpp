@@ -94,6 +94,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
                                       std::to_string(U0.rows()) + ", fixed mask " + std::to_string(fixed0.size()));
   if (nt > 0 && (T0.minCoeff() < 0 || T0.maxCoeff() >= nv))
     throw Error(ErrorKind::Input, "untangle: tet vertex index out of range");
+  if (options.targetVolumes.size() != 0 && options.targetVolumes.size() != nt)
+    throw Error(ErrorKind::Usage, "untangle: " + std::to_string(options.targetVolumes.size()) + " target volumes for " +
+                                      std::to_string(nt) + " tets");
   if (nc > 0 && (options.sphereFaces.minCoeff() < 0 || options.sphereFaces.maxCoeff() >= nv))
     throw Error(ErrorKind::Input, "untangle: sphere face vertex index out of range");
   UntangleResult result;
@@ -127,7 +130,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     return bad;
   };
   result.flippedSphereTriangles = countBad(nt, ntx);
-  if ((result.invertedBefore == 0 && result.flippedSphereTriangles == 0) || nt == 0) return result;
+  if ((result.invertedBefore == 0 && result.flippedSphereTriangles == 0 && !options.relax) || nt == 0) return result;
 
   // Reference gradients of the barycentric coordinates, scaled so that the
   // reference volume equals the mapped one (det J ≈ 1 on average). The cones
@@ -170,10 +173,15 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       for (int k = 0; k < 4; ++k) mapped[T(t, k)] += v, ref[T(t, k)] += weight[t];
     }
     const double globalRatio = mapped.sum() / ref.sum();
+    const bool targets = options.targetVolumes.size() == nt;
     for (Eigen::Index t = 0; t < nt; ++t) {
       double ratio = 0;
-      for (int k = 0; k < 4; ++k) ratio += mapped[T(t, k)] / ref[T(t, k)];
-      ratio /= 4;
+      if (targets) {
+        ratio = options.targetVolumes(t) / weight[t];
+      } else {
+        for (int k = 0; k < 4; ++k) ratio += mapped[T(t, k)] / ref[T(t, k)];
+        ratio /= 4;
+      }
       if (!(ratio > 0)) ratio = globalRatio;
       const double scale = std::cbrt(ratio);
       grad[static_cast<size_t>(t)] /= scale;
@@ -197,7 +205,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
 
   const detail::VertexTets vt = detail::vertexTets(nvx, T);
   std::vector<int> inRegion(static_cast<size_t>(nvx), -1);  // variable index of a free vertex
-  int rings = options.rings;
+  int rings = options.relax ? -1 : options.rings;
   size_t previousFree = 0;
   for (;;) {
     // Free region: `rings` rings around the vertices of inverted tets.

@@ -1,0 +1,108 @@
+// The param stage (design.md "Measure", "Semi-discrete optimal transport",
+// "Composition and the boundary"): measure control on two regions, mass
+// conservation, invariance, boundary on ∂Ω, zero inverted tets.
+#include <gtest/gtest.h>
+
+#include "test_shapes.h"
+#include "tet2spline/param/error.h"
+#include "tet2spline/param/parameterize.h"
+#include "tet2spline/param/tetrahedralize.h"
+#include "tet2spline/param/topology.h"
+
+using namespace tet2spline;
+
+namespace {
+
+// A sphere of radius 1 holding an off-centre sphere of radius 0.4 (region 2).
+TetMesh twoRegionSphere() {
+  SurfaceMesh s = t2stest::merge(t2stest::sphere(3, 1.0), t2stest::sphere(2, 0.4, Eigen::RowVector3d(0.35, 0.1, 0)));
+  TetrahedralizeOptions o;
+  o.maxVolume = 0.001;
+  return tetrahedralize(s, o);
+}
+
+void expectValidParameterization(const ParamResult& r, ParamDomain domain) {
+  ASSERT_TRUE(r.status.ok) << r.status.message;
+  EXPECT_EQ(r.param.invertedTets, 0);
+  EXPECT_EQ(countNonPositiveTets(r.U, r.mesh.T), 0);
+  EXPECT_LE(r.ot.maxRelativeMassError, 1e-6);
+  EXPECT_LT(r.param.boundaryMaxDistance, 1e-12);
+  for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) {
+    const Eigen::Vector3d u = r.U.row(r.boundaryVertices(k));
+    if (domain == ParamDomain::Ball) {
+      EXPECT_NEAR(u.norm(), 1.0, 1e-12);
+    } else {
+      EXPECT_TRUE(u.minCoeff() == 0 || u.maxCoeff() == 1) << u.transpose();
+      EXPECT_GE(u.minCoeff(), 0);
+      EXPECT_LE(u.maxCoeff(), 1);
+    }
+  }
+}
+
+}  // namespace
+
+TEST(TetDensities, RegionsFieldsAndVoidsWithClearErrors) {
+  TetMesh m = t2stest::cube6();
+  m.region << 1, 1, 2, 2, 3, 3;
+  m.voidRegions = {3};
+  MeasureOptions o;
+  o.regionDensity[2] = 4;
+  Eigen::VectorXd w = tetDensities(m, o);
+  EXPECT_EQ(w(0), 1);
+  EXPECT_EQ(w(2), 4);
+  o.voidDensity = 0.1;
+  w = tetDensities(m, o);
+  EXPECT_DOUBLE_EQ(w(5), 0.1);
+  o.regionDensity[9] = 2;
+  EXPECT_THROW(tetDensities(m, o), Error);
+  MeasureOptions f;
+  f.densityField = "rho";
+  EXPECT_THROW(tetDensities(m, f), Error);
+  m.pointFields.push_back({"rho", Eigen::MatrixXd::Constant(m.numVertices(), 1, 3.0)});
+  EXPECT_DOUBLE_EQ(tetDensities(m, f)(0), 3.0);
+  m.pointFields.back().values(0, 0) = -1;
+  EXPECT_THROW(tetDensities(m, f), Error);
+}
+
+class TwoRegions : public ::testing::TestWithParam<ParamDomain> {};
+
+TEST_P(TwoRegions, DensityFourGivesTheTargetVolumeFractions) {
+  const TetMesh mesh = twoRegionSphere();
+  ParamOptions o;
+  o.domain = GetParam();
+  o.measure.regionDensity[2] = 4;
+  const ParamResult r = parameterize(mesh, o);
+  expectValidParameterization(r, GetParam());
+  ASSERT_EQ(r.regions.size(), 2u);
+  const double v1 = r.regions[0].physicalVolume, v2 = r.regions[1].physicalVolume;
+  EXPECT_NEAR(r.regions[1].targetVolumeFraction, 4 * v2 / (v1 + 4 * v2), 1e-12);
+  for (const RegionFigures& g : r.regions)
+    EXPECT_NEAR(g.achievedVolumeFraction, g.targetVolumeFraction, 0.005) << "region " << g.id;
+  // Mass is conserved: the parametric volumes fill the domain.
+  EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.02 * r.domainVolume);
+}
+
+INSTANTIATE_TEST_SUITE_P(Domains, TwoRegions, ::testing::Values(ParamDomain::Ball),
+                         [](const auto& info) { return info.param == ParamDomain::Ball ? "ball" : "cube"; });
+
+TEST(Parameterize, UnchangedUnderRigidMotionAndScaling) {
+  const TetMesh mesh = twoRegionSphere();
+  ParamOptions o;
+  o.domain = ParamDomain::Ball;
+  const ParamResult a = parameterize(mesh, o);
+  TetMesh moved = mesh;
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  moved.V = ((3.5 * mesh.V * R.transpose()).rowwise() + Eigen::RowVector3d(10, -4, 2)).eval();
+  const ParamResult b = parameterize(moved, o);
+  ASSERT_TRUE(a.status.ok && b.status.ok);
+  // The spherical map is normalised up to a rotation: compare intrinsic figures.
+  EXPECT_NEAR(a.regions[1].achievedVolumeFraction, b.regions[1].achievedVolumeFraction, 1e-3);
+  EXPECT_NEAR(a.param.volumeRatioP50, b.param.volumeRatioP50, 1e-2);
+}
+
+TEST(Parameterize, WithoutTransportTheCubeIsRefused) {
+  ParamOptions o;
+  o.transport = false;
+  o.domain = ParamDomain::Cube;
+  EXPECT_THROW(parameterize(twoRegionSphere(), o), Error);
+}
