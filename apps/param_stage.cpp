@@ -67,6 +67,7 @@ void addParamReport(json& j, const ParamResult& r) {
     setPath(j, "ot.max_relative_mass_error", r.ot.maxRelativeMassError);
     setPath(j, "ot.step_sizes", r.ot.stepSizes);
     setPath(j, "ot.merged_points", r.ot.mergedPoints);
+    setPath(j, "ot.solver_switches", r.ot.solverSwitches);
     setPath(j, "ot.linear_solver", r.ot.linearSolver);
   }
   setPath(j, "param.inverted_tets_before_untangling", r.param.invertedTetsBeforeUntangling);

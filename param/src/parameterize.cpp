@@ -426,7 +426,12 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     Eigen::VectorXd physical(nt), weighted(nt);
     for (Eigen::Index t = 0; t < nt; ++t) physical(t) = signedVolume(mesh.V, mesh.T, t), weighted(t) = w(t) * physical(t);
     const double totalWeighted = weighted.sum();
-    const Domain domain = options.domain == ParamDomain::Cube ? Domain::unitCube() : Domain::unitBall(options.ballSubdivisions);
+    int level = options.ballSubdivisions;
+    if (level < 0) {
+      level = 3;
+      while (level < 6 && 10.0 * std::pow(4.0, level) < 2.0 * static_cast<double>(r.boundaryVertices.size())) ++level;
+    }
+    const Domain domain = options.domain == ParamDomain::Cube ? Domain::unitCube() : Domain::unitBall(level);
     r.domainVolume = options.transport ? domain.volume() : 4.0 * M_PI / 3.0;
     r.domainRepresentation =
         options.domain == ParamDomain::Cube
@@ -458,6 +463,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       r.ot.maxRelativeMassError = transport.maxRelativeMassError;
       r.ot.stepSizes = transport.stepSizes;
       r.ot.mergedPoints = transport.mergedPoints;
+      r.ot.solverSwitches = transport.solverSwitches;
       for (const auto& s : transport.iterationStats) {
         r.ot.triangulationSeconds += s.triangulationSeconds;
         r.ot.clippingSeconds += s.clippingSeconds;

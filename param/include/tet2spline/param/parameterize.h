@@ -57,7 +57,11 @@ struct ParamOptions {
   MeasureOptions measure;
   BallMapOptions ballMap;
   OptimalTransportOptions transportOptions;
-  int ballSubdivisions = 6;            ///< geodesic polytope level for the ball domain (power_diagram.h)
+  /// Geodesic polytope level for the ball domain (power_diagram.h); < 0:
+  /// about two tangent planes per boundary vertex, levels 3 to 6 (clipping
+  /// cost grows when a boundary cell meets many planes: part.off, 2.7k
+  /// boundary vertices, OT 12.3 s at level 5 against 27.9 s at level 6).
+  int ballSubdivisions = -1;
   /// One OT site per region where regions meet (parameterize.cpp buildSites).
   /// Measured on a sphere holding a density-4 sphere (2.5k tets, ball):
   /// region fraction 0.193 instead of 0.165 (target 0.203) straight after the
@@ -109,6 +113,7 @@ struct ParamResult {
     double maxRelativeMassError = 0;
     std::vector<double> stepSizes;
     int mergedPoints = 0;
+    int solverSwitches = 0;             ///< CG tightenings / switches to CHOLMOD (optimal_transport.h)
     double triangulationSeconds = 0, clippingSeconds = 0, assemblySeconds = 0, linearSolveSeconds = 0;
     std::string linearSolver;
   } ot;
