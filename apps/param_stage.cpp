@@ -98,6 +98,7 @@ void addParamReport(json& j, const ParamResult& r) {
     setPath(j, "timings.transport_linear_solve", r.ot.linearSolveSeconds);
     setPath(j, "timings.composition", r.timings.composition);
     setPath(j, "timings.final_untangle", r.timings.finalUntangle);
+    setPath(j, "timings.relax", r.timings.relax);
   }
   setPath(j, "timings.param", r.timings.total);
 }
