@@ -263,7 +263,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               for (int k = 0; k < 4; ++k) J += W.row(T(t, k)).transpose() * G.col(k).transpose();
               const double D = J.determinant();
               det[a] = D;
-              const double c1 = chi(eps, D), c2 = std::pow(c1, 2.0 / 3.0), c3 = chiDerivative(eps, D);
+              const double c1 = chi(eps, D), c2 = std::cbrt(c1) * std::cbrt(c1), c3 = chiDerivative(eps, D);  // cbrt: pow took 17%
               const double f = J.squaredNorm() / c2, h = (1 + D * D) / c1;
               sum += weight[t] * ((1 - options.theta) * f + options.theta * h);
               if (g) {
