@@ -2,6 +2,8 @@
 // boundary vertices, the volume, orientation and regions are unchanged.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include "test_data.h"
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/refine.h"
