@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numeric>
 
@@ -94,7 +95,7 @@ struct CubePlacement {
 // in compressed rows, `centroids` the vertex positions after composition.
 CubePlacement placeOnCube(const Eigen::MatrixX3d& sites, const Eigen::VectorXd& psi, const std::vector<int>& siteStart,
                           const Eigen::MatrixX3d& centroids, const Eigen::VectorXi& boundary,
-                          const Eigen::MatrixX3i& faces) {
+                          const Eigen::MatrixX3i& faces, bool withEdges) {
   const Eigen::Index nv = centroids.rows();
   CubePlacement out;
   out.positions = centroids;
@@ -166,7 +167,7 @@ CubePlacement placeOnCube(const Eigen::MatrixX3d& sites, const Eigen::VectorXd& 
     out.locks[static_cast<size_t>(i)] = static_cast<std::uint8_t>(7u & ~(1u << edge.axis));
   };
   for (int i : all)
-    if (edgeOf[static_cast<size_t>(i)] >= 0) putOnEdge(i);
+    if (edgeOf[static_cast<size_t>(i)] >= 0 && withEdges) putOnEdge(i);
 
   // Corners: the owner among boundary vertices.
   std::vector<char> isCorner(static_cast<size_t>(nv), 0);
@@ -486,7 +487,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) fixed[static_cast<size_t>(r.boundaryVertices(k))] = true;
       std::vector<std::uint8_t> locks;
       if (options.domain == ParamDomain::Cube) {
-        CubePlacement placed = placeOnCube(sites, transport.weights, siteStart, r.U, r.boundaryVertices, r.boundaryFaces);
+        CubePlacement placed =
+            placeOnCube(sites, transport.weights, siteStart, r.U, r.boundaryVertices, r.boundaryFaces, options.cubeEdges);
         for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k)
           r.U.row(r.boundaryVertices(k)) = placed.positions.row(r.boundaryVertices(k));
         r.param.cornerVertices = placed.corners;
@@ -510,10 +512,22 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       };
       UntangleResult untangled = untangle(mesh.V, mesh.T, r.U, fixed, untangleOptions);
       r.param.invertedTetsBeforeUntangling = untangled.invertedBefore;
-      if (untangled.invertedAfter > 0 && options.domain == ParamDomain::Ball) {
-        // Let the boundary slide on the sphere (flips of its triangles kept out).
-        untangleOptions.sphereFaces = r.boundaryFaces;
+      const int flippedOnCube = options.domain == ParamDomain::Cube
+                                    ? countFlippedBoundaryTriangles(untangled.U, r.boundaryFaces, Eigen::Vector3d(0.5, 0.5, 0.5))
+                                    : 0;
+      if (untangled.invertedAfter > 0 || flippedOnCube > 0) {
+        // Let the boundary slide on ∂Ω, flips of its triangles kept out: on
+        // the sphere, or on the cube's faces and edges with the coordinates
+        // the placement pinned kept (corners never move).
         std::fill(fixed.begin(), fixed.end(), false);
+        if (options.domain == ParamDomain::Ball) {
+          untangleOptions.sphereFaces = r.boundaryFaces;
+        } else {
+          untangleOptions.cubeFaces = r.boundaryFaces;
+          untangleOptions.cubeLocks = locks;
+        }
+        untangleOptions.rings = UntangleOptions().rings;  // sliding needs the wider, longer default runs
+        untangleOptions.maxLbfgsIterations = UntangleOptions().maxLbfgsIterations;
         untangled = untangle(mesh.V, mesh.T, untangled.U, fixed, untangleOptions);
       }
       r.U = std::move(untangled.U);

@@ -82,7 +82,7 @@ TEST_P(TwoRegions, DensityFourGivesTheTargetVolumeFractions) {
   EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.02 * r.domainVolume);
 }
 
-INSTANTIATE_TEST_SUITE_P(Domains, TwoRegions, ::testing::Values(ParamDomain::Ball),
+INSTANTIATE_TEST_SUITE_P(Domains, TwoRegions, ::testing::Values(ParamDomain::Ball, ParamDomain::Cube),
                          [](const auto& info) { return info.param == ParamDomain::Ball ? "ball" : "cube"; });
 
 TEST(Parameterize, UnchangedUnderRigidMotionAndScaling) {

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <random>
 
 #include "ball_test_meshes.h"
@@ -66,4 +68,120 @@ TEST(Untangle, NothingToDoLeavesTheMapAlone) {
 TEST(Untangle, RejectsMismatchedShapes) {
   const TetMesh m = t2stest::cubeGrid(2);
   EXPECT_THROW(untangle(m.V, m.T, m.V.topRows(3), boundaryMask(m)), Error);
+}
+
+// ---- Sliding on the boundary of the unit cube (composition with OT) ----
+
+namespace {
+
+struct CubeCase {
+  TetMesh mesh;                       // cubeGrid on [0,1]³
+  Eigen::MatrixX3i faces;             // outward boundary triangles
+  std::vector<std::uint8_t> locks;    // coordinates that are 0 or 1
+  Eigen::MatrixX3d U;                 // tangled: boundary flipped within faces, interior inverted
+};
+
+CubeCase tangledCube(int n) {
+  CubeCase c;
+  c.mesh = t2stest::cubeGrid(n);
+  c.mesh.V = (c.mesh.V.array() + 1) / 2;  // exact: 0 and 1 on the faces
+  c.faces = boundaryFaces(c.mesh);
+  c.locks.assign(static_cast<size_t>(c.mesh.V.rows()), 0);
+  for (Eigen::Index v = 0; v < c.mesh.V.rows(); ++v)
+    for (int d = 0; d < 3; ++d)
+      if (c.mesh.V(v, d) == 0 || c.mesh.V(v, d) == 1) c.locks[v] |= static_cast<std::uint8_t>(1u << d);
+  c.U = c.mesh.V;
+  std::mt19937 rng(11);
+  const double h = 1.0 / n;
+  std::uniform_real_distribution<double> jitter(-0.9 * h, 0.9 * h);
+  for (Eigen::Index v = 0; v < c.U.rows(); ++v) {
+    if (c.locks[v] == 7) continue;  // corners stay
+    // Boundary vertices move within their face or edge, interior ones anywhere;
+    // free coordinates stay inside [0, 1].
+    if (c.locks[v] == 0 && v % 5 != 0) continue;  // a fifth of the interior
+    if (c.locks[v] != 0 && v % 3 != 0) continue;  // a third of the boundary
+    for (int d = 0; d < 3; ++d)
+      if (!((c.locks[v] >> d) & 1)) c.U(v, d) = std::clamp(c.U(v, d) + jitter(rng), 0.0, 1.0);
+  }
+  return c;
+}
+
+int flippedCubeTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F) {
+  const Eigen::Vector3d centre(0.5, 0.5, 0.5);
+  int flipped = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = U.row(F(f, 0)), b = U.row(F(f, 1)), d = U.row(F(f, 2));
+    flipped += orient3d(centre.data(), a.data(), b.data(), d.data()) <= 0;
+  }
+  return flipped;
+}
+
+}  // namespace
+
+TEST(UntangleCube, BoundarySlidesOnTheCubeAndNothingFlips) {
+  const CubeCase c = tangledCube(6);
+  ASSERT_GT(flippedCubeTriangles(c.U, c.faces), 0);
+  ASSERT_GT(countNonPositiveTets(c.U, c.mesh.T), 0);
+  UntangleOptions o;
+  o.cubeFaces = c.faces;
+  o.cubeLocks = c.locks;
+  const std::vector<bool> none(static_cast<size_t>(c.U.rows()), false);
+  const UntangleResult r = untangle(c.mesh.V, c.mesh.T, c.U, none, o);
+  EXPECT_TRUE(r.status.ok) << r.status.message;
+  EXPECT_EQ(r.invertedAfter, 0);
+  EXPECT_EQ(countNonPositiveTets(r.U, c.mesh.T), 0);
+  EXPECT_EQ(r.flippedBoundaryTriangles, 0);
+  EXPECT_EQ(flippedCubeTriangles(r.U, c.faces), 0);
+  EXPECT_EQ(r.flippedSphereTriangles, 0);
+  for (Eigen::Index v = 0; v < r.U.rows(); ++v) {
+    for (int d = 0; d < 3; ++d) {
+      if ((c.locks[v] >> d) & 1) {
+        EXPECT_EQ(r.U(v, d), c.U(v, d)) << "vertex " << v << " coordinate " << d;  // bitwise
+      }
+      EXPECT_GE(r.U(v, d), 0);
+      EXPECT_LE(r.U(v, d), 1);
+    }
+    if (c.locks[v] == 7) {
+      EXPECT_EQ(r.U.row(v), c.mesh.V.row(v));  // corners never move
+    }
+  }
+}
+
+TEST(UntangleCube, LocksDefaultToTheCoordinatesOnAFace) {
+  const CubeCase c = tangledCube(5);
+  UntangleOptions o;
+  o.cubeFaces = c.faces;  // no cubeLocks: derived from the 0/1 coordinates
+  const UntangleResult r = untangle(c.mesh.V, c.mesh.T, c.U, std::vector<bool>(static_cast<size_t>(c.U.rows()), false), o);
+  EXPECT_EQ(r.invertedAfter, 0) << r.status.message;
+  EXPECT_EQ(r.flippedBoundaryTriangles, 0);
+  for (Eigen::Index v = 0; v < r.U.rows(); ++v)
+    for (int d = 0; d < 3; ++d)
+      if ((c.locks[v] >> d) & 1) {
+        EXPECT_EQ(r.U(v, d), c.U(v, d));
+      }
+}
+
+TEST(UntangleCube, RejectsSphereAndCubeTogetherAndUnlockedFaceVertices) {
+  const CubeCase c = tangledCube(2);
+  const std::vector<bool> none(static_cast<size_t>(c.U.rows()), false);
+  UntangleOptions both;
+  both.cubeFaces = c.faces;
+  both.sphereFaces = c.faces;
+  try {
+    untangle(c.mesh.V, c.mesh.T, c.U, none, both);
+    FAIL() << "expected Error(Usage)";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Usage);
+  }
+  UntangleOptions unlocked;
+  unlocked.cubeFaces = c.faces;
+  unlocked.cubeLocks.assign(static_cast<size_t>(c.U.rows()), 0);
+  Eigen::MatrixX3d tangled = c.U;
+  tangled.row(c.faces(0, 0)) = Eigen::RowVector3d(0.5, 0.5, 0.5);  // an inversion, so the options are read
+  try {
+    untangle(c.mesh.V, c.mesh.T, tangled, none, unlocked);
+    FAIL() << "expected Error(Input)";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Input);
+  }
 }

@@ -62,6 +62,15 @@ struct ParamOptions {
   /// cost grows when a boundary cell meets many planes: part.off, 2.7k
   /// boundary vertices, OT 12.3 s at level 5 against 27.9 s at level 6).
   int ballSubdivisions = -1;
+  /// Cube: also put boundary vertices on the 12 edges (the OT decides which,
+  /// see above). Off by default: a sphere-like boundary has no mesh edges
+  /// along the cube's edges, so triangles that reach across an edge got two
+  /// vertices on it and one on a face a hair away; the sliding untangler then
+  /// collapsed such pairs (sphere holding a density-4 sphere, 10k tets: 10
+  /// tets left inverted, region fraction 0.178 for a target of 0.203; without
+  /// edge vertices: 0 inverted, within 0.005). Without them boundary
+  /// triangles cut thin wedges off the cube's edges; corners are still taken.
+  bool cubeEdges = false;
   /// One OT site per region where regions meet (parameterize.cpp buildSites).
   /// Measured on a sphere holding a density-4 sphere (2.5k tets, ball):
   /// region fraction 0.193 instead of 0.165 (target 0.203) straight after the
@@ -91,7 +100,7 @@ struct ParamOptions {
   /// at θ = 0.999 (1000); at 10k tets 0.1997.
   int relaxIterations = 300;
   int relaxRings = 6;                  ///< vertices within this many rings of a density jump move (3 rings: 0.1968, 6: 0.1997, all: 0.1997)
-  double relaxTheta = 0.995;           ///< weight of the volume term in the relaxation (untangle.h θ)
+  double relaxTheta = 0.999;           ///< weight of the volume term in the relaxation (untangle.h θ)
   bool splitChords = true;             ///< step 1 (required for the cube)
   ProgressCallback progress = {};      ///< fraction over the whole stage; false stops
 };

@@ -4,27 +4,53 @@
 /// Follows Garanzha, Kaporin, Kudryavtseva, Protais, Ray, Sokolov,
 /// "Foldover-free maps in 50 lines of code" (SIGGRAPH 2021). With J_t the
 /// Jacobian of the affine map from the reference tet t (the input tet, scaled
-/// by the local volume ratio of the map around its vertices, so that det J ≈ 1
-/// even where the map shrinks a part a thousandfold) to its image, the
+/// to the map's size there; see "Scale" below) to its image, the
 /// energy is
 ///     E_ε(U) = Σ_t w_t [ (1−θ) tr(JᵀJ) / χ(det J, ε)^(2/3) + θ (det²J + 1) / χ(det J, ε) ],
 ///     χ(D, ε) = (D + sqrt(ε² + D²)) / 2,
-/// w_t the reference volume over the mean one. It is minimised with L-BFGS
+/// w_t = 1 (see below). It is minimised with L-BFGS
 /// over the free vertices for a decreasing sequence of ε, set as in the
 /// authors' reference code (invertible-maps, eq. (7)): ε = e₀ when every
 /// det J > 0, else ε = sqrt(e₀² + 0.04 detmin²), with e₀ = 10⁻³ halved every
 /// ten updates, and never increased (without that, sliding boundary vertices
 /// oscillate between inverting and repairing; the slower schedule from the paper's theorem,
 /// σ = max(1 − E/E_prev, 1/10), needed ten times more updates here), until no
-/// tet is inverted, checked exactly. Because the
-/// reference shapes are the input tets, the result also keeps their quality.
+/// tet is inverted, checked exactly. Because the reference shapes are the
+/// input tets, the result also keeps their quality.
+///
+/// Scale. A conformal spherical map shrinks protrusions enormously: mapped
+/// edges span 10⁻⁸ .. 10⁻¹ on triceratops and 10⁻⁵ .. 10⁻¹ on homer. So
+///  - each reference tet is the input tet scaled by its own map scale
+///    s_t = sqrt(Σ|Δu|²/Σ|Δx|²) over its six edges (det J ≈ 1 for a
+///    well-shaped image at any scale; edge lengths, unlike volumes, stay
+///    meaningful for inverted and flat tets);
+///  - every tet has weight 1 (with reference-volume weights, tets in small
+///    features weighed 10⁻⁶ of the mean and L-BFGS traded their inversion
+///    for energy elsewhere);
+///  - the unknowns are displacements in units of h_v / sqrt(#tets at v), h_v
+///    the geometric mean of the mapped edges at v (a diagonal preconditioner:
+///    the Hessian is O(1) at every vertex; without it homer's 8 inversions
+///    took 74 s, with it about 1 s), and J is formed from edge vectors
+///    (no cancellation where a tet is 10⁻⁸ wide at |u| = 1).
 ///
 /// Only vertices within `rings` vertex rings of an inverted tet move (a few
 /// dozen inverted tets in a 10⁶-tet map are repaired locally); the region is
 /// doubled while inversions remain, up to every free vertex. Inversions are
 /// counted exactly (orient3d, topology.h) before and after.
 /// Energy and gradient are evaluated in parallel (TBB), deterministically.
+///
+/// Sliding boundaries. With `sphereFaces` (the ball) or `cubeFaces` (the
+/// unit cube [0,1]³, for the composition with optimal transport) the
+/// boundary vertices that are not fixed slide on that boundary, and the
+/// cones (c, a, b, d) from the domain's centre c (origin, or (½,½,½)) over
+/// the boundary triangles (a, b, d) join the energy as extra tets with the
+/// same barrier, so no boundary triangle flips: orient3d(c, a, b, d) > 0,
+/// counted exactly. Both domains are star-shaped from c, so positive cones
+/// mean a bijective boundary. On the cube, a vertex's locked coordinates
+/// (those on which it lies on a face; three for a corner) are never changed,
+/// not even by rounding, and its free ones are clamped to [0, 1].
 
+#include <cstdint>
 #include <vector>
 
 #include "tet2spline/param/error.h"
@@ -41,15 +67,23 @@ struct UntangleOptions {
   int stallIterations = 15;        ///< give up a region when min det J has not grown for this many ε updates
   int rings = 3;                   ///< initial free region (vertex rings) around inverted tets, doubled while it fails; < 0: all free vertices
   /// Outward triangles (indexing U) of a boundary that lies on the unit
-  /// sphere. Their vertices that are not fixed may slide on the sphere
+  /// sphere. Their vertices that are not fixed slide on the sphere
   /// (position y/|y|), and the cones (0, a, b, c) join the energy as extra
   /// tets, so no triangle flips on the sphere (orient3d(0,a,b,c) > 0).
-  /// Needed when a tet with four boundary vertices is inverted by the
-  /// spherical map itself: no interior move can repair it.
+  /// Needed when an inversion cannot be repaired with the sphere fixed.
   Eigen::MatrixX3i sphereFaces;
+  /// Outward triangles (indexing U) lying on the boundary of the unit cube
+  /// [0,1]³. Their vertices that are not fixed slide on the cube's boundary,
+  /// cones from (½,½,½) as above. Exclusive with sphereFaces (Error(Usage)).
+  Eigen::MatrixX3i cubeFaces;
+  /// Per vertex (#V, or empty): bit k set => coordinate k is pinned (to 0 or
+  /// 1) on a cube face; 3 bits = a corner, which never moves. Empty: the
+  /// coordinates of cube-face vertices that are exactly 0 or 1 are locked.
+  /// A cube-face vertex without a locked coordinate is Error(Input).
+  std::vector<std::uint8_t> cubeLocks;
   /// Per tet (#T, or empty): the volume each tet should have in the map.
   /// When given, reference tet t is scaled to this volume instead of by the
-  /// local volume ratio above, so that untangling after the measure-controlled
+  /// mapped edge lengths above, so that untangling after the measure-controlled
   /// composition keeps each region's parametric volume (measured: a density-4
   /// region with 20% of the volume fell to 11% when scaled by local ratios).
   Eigen::VectorXd targetVolumes;
@@ -68,15 +102,17 @@ struct UntangleResult {
   int outerIterations = 0;         ///< ε updates, summed over regions
   int lbfgsIterations = 0;
   int freeVertices = 0;            ///< vertices that moved in the last region
-  int flippedSphereTriangles = 0;  ///< exact, of options.sphereFaces, at the end
+  int flippedBoundaryTriangles = 0;  ///< exact, of the options' sphere or cube faces, at the end
+  int flippedSphereTriangles = 0;    ///< the same count when sphereFaces was given, else 0 (older callers)
   double minDet = 0;               ///< smallest det J at the end (floating point)
   Status status;                   ///< failure when inversions remain or progress stopped it
 };
 
 /// Untangles U (#V × 3), the image of the reference mesh (reference #V × 3,
 /// T #T × 4, positively oriented), keeping the vertices with fixed[i] == true.
-/// Throws Error(Input) for mismatched shapes or a reference tet of
-/// non-positive volume.
+/// Throws Error(Input) for mismatched shapes, indices out of range or a
+/// reference tet of non-positive volume; Error(Usage) if both sphereFaces and
+/// cubeFaces are given.
 UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4i& T, const Eigen::MatrixX3d& U,
                         const std::vector<bool>& fixed, const UntangleOptions& options = {});
 
