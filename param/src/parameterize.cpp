@@ -61,23 +61,6 @@ std::array<CubeEdge, 12> cubeEdges() {
   return edges;
 }
 
-// Moves x onto the face of the cube nearest to it (x is inside the cube).
-std::uint8_t projectToNearestFace(Eigen::Vector3d& x) {
-  int best = 0;
-  double bestDistance = std::numeric_limits<double>::infinity();
-  double side = 0;
-  for (int j = 0; j < 3; ++j) {
-    x(j) = std::clamp(x(j), 0.0, 1.0);
-    if (x(j) < bestDistance) bestDistance = x(j), best = j, side = 0;
-    if (1 - x(j) < bestDistance) bestDistance = 1 - x(j), best = j, side = 1;
-  }
-  x(best) = side;
-  // Keep the other coordinates off the edges: the OT decides the edges.
-  for (int j = 0; j < 3; ++j)
-    if (j != best) x(j) = std::clamp(x(j), 1e-9, 1 - 1e-9);
-  return static_cast<std::uint8_t>(1u << best);
-}
-
 struct CubePlacement {
   Eigen::MatrixX3d positions;     // rows of the boundary vertices (others untouched)
   std::vector<std::uint8_t> locks;  // #V
@@ -95,7 +78,7 @@ struct CubePlacement {
 // in compressed rows, `centroids` the vertex positions after composition.
 CubePlacement placeOnCube(const Eigen::MatrixX3d& sites, const Eigen::VectorXd& psi, const std::vector<int>& siteStart,
                           const Eigen::MatrixX3d& centroids, const Eigen::VectorXi& boundary,
-                          const Eigen::MatrixX3i& faces, bool withEdges) {
+                          const Eigen::MatrixX3i& faces, bool withEdges, bool withCorners) {
   const Eigen::Index nv = centroids.rows();
   CubePlacement out;
   out.positions = centroids;
@@ -115,10 +98,42 @@ CubePlacement placeOnCube(const Eigen::MatrixX3d& sites, const Eigen::VectorXd& 
   };
   std::vector<int> all(boundary.data(), boundary.data() + nb);
 
-  // Faces first, for every boundary vertex.
+  // Faces first, for every boundary vertex: the face nearest to its cell's
+  // centroid, except that a vertex none of whose boundary neighbours is on
+  // its face joins the face most of them are on (an isolated vertex has
+  // triangles reaching across an edge on every side, and its tets cannot
+  // all stay positive; measured on blob-closed: 1 tet left inverted).
+  std::vector<int> face(static_cast<size_t>(nv), -1);  // 2·axis + side
+  auto nearestFace = [](const Eigen::Vector3d& x) {
+    int best = 0;
+    double distance = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < 3; ++j) {
+      if (x(j) < distance) distance = x(j), best = 2 * j;
+      if (1 - x(j) < distance) distance = 1 - x(j), best = 2 * j + 1;
+    }
+    return best;
+  };
+  for (int i : all) face[static_cast<size_t>(i)] = nearestFace(centroids.row(i).transpose());
+  std::vector<std::vector<int>> ring(static_cast<size_t>(nv));
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) ring[static_cast<size_t>(faces(f, k))].push_back(faces(f, (k + 1) % 3));
+  for (int pass = 0; pass < 10; ++pass) {
+    int moved = 0;
+    for (int i : all) {
+      int votes[6] = {0, 0, 0, 0, 0, 0};
+      for (int j : ring[static_cast<size_t>(i)]) ++votes[face[static_cast<size_t>(j)]];
+      if (votes[face[static_cast<size_t>(i)]] > 0) continue;
+      face[static_cast<size_t>(i)] = static_cast<int>(std::max_element(votes, votes + 6) - votes);
+      ++moved;
+    }
+    if (moved == 0) break;
+  }
   for (int i : all) {
     Eigen::Vector3d x = centroids.row(i);
-    out.locks[static_cast<size_t>(i)] = projectToNearestFace(x);
+    const int axis = face[static_cast<size_t>(i)] / 2;
+    for (int j = 0; j < 3; ++j) x(j) = std::clamp(x(j), 1e-9, 1 - 1e-9);
+    x(axis) = face[static_cast<size_t>(i)] % 2;
+    out.locks[static_cast<size_t>(i)] = static_cast<std::uint8_t>(1u << axis);
     out.positions.row(i) = x;
   }
 
@@ -171,7 +186,7 @@ CubePlacement placeOnCube(const Eigen::MatrixX3d& sites, const Eigen::VectorXd& 
 
   // Corners: the owner among boundary vertices.
   std::vector<char> isCorner(static_cast<size_t>(nv), 0);
-  for (int c = 0; c < 8; ++c) {
+  for (int c = 0; c < (withCorners ? 8 : 0); ++c) {
     const Eigen::Vector3d q(c & 1, (c >> 1) & 1, (c >> 2) & 1);
     const int i = owner(q, all);
     if (isCorner[static_cast<size_t>(i)]) continue;  // a vertex owning two corners keeps the first
@@ -488,7 +503,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       std::vector<std::uint8_t> locks;
       if (options.domain == ParamDomain::Cube) {
         CubePlacement placed =
-            placeOnCube(sites, transport.weights, siteStart, r.U, r.boundaryVertices, r.boundaryFaces, options.cubeEdges);
+            placeOnCube(sites, transport.weights, siteStart, r.U, r.boundaryVertices, r.boundaryFaces, options.cubeEdges,
+                        options.cubeCorners);
         for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k)
           r.U.row(r.boundaryVertices(k)) = placed.positions.row(r.boundaryVertices(k));
         r.param.cornerVertices = placed.corners;

@@ -49,7 +49,85 @@ std::vector<std::pair<int, int>> findChords(const TetMesh& mesh) {
 
 int countBoundaryChords(const TetMesh& mesh) { return static_cast<int>(findChords(mesh).size()); }
 
+namespace {
+
+// Interior faces whose three vertices are on the boundary (their edges are
+// boundary edges, so no chord split touches them; e.g. the inner face of a
+// tet with three faces on the boundary at a sharp corner) would lie flat on
+// one face of the cube, between two tets. Each gets a new vertex at its
+// centroid, and its two tets become three each. Returns the faces split.
+int splitBoundaryFaces(TetMesh& mesh) {
+  const Eigen::MatrixX3i F = boundaryFaces(mesh);
+  std::vector<char> onBoundary(static_cast<size_t>(mesh.numVertices()), 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) onBoundary[static_cast<size_t>(F(f, k))] = 1;
+  // Faces with three boundary vertices, seen from two tets (interior).
+  std::vector<std::array<int, 3>> candidates;
+  for (Eigen::Index t = 0; t < mesh.numTets(); ++t)
+    for (int skip = 0; skip < 4; ++skip) {
+      std::array<int, 3> f;
+      int n = 0;
+      for (int k = 0; k < 4; ++k)
+        if (k != skip) f[static_cast<size_t>(n++)] = mesh.T(t, k);
+      if (!onBoundary[static_cast<size_t>(f[0])] || !onBoundary[static_cast<size_t>(f[1])] ||
+          !onBoundary[static_cast<size_t>(f[2])])
+        continue;
+      std::sort(f.begin(), f.end());
+      candidates.push_back(f);
+    }
+  std::sort(candidates.begin(), candidates.end());
+  std::vector<std::array<int, 3>> interior;
+  for (size_t i = 0; i + 1 < candidates.size(); ++i)
+    if (candidates[i] == candidates[i + 1]) interior.push_back(candidates[i]);
+  for (const auto& f : interior) {
+    std::vector<Eigen::Index> around;
+    for (Eigen::Index t = 0; t < mesh.numTets(); ++t) {
+      int hits = 0;
+      for (int k = 0; k < 4; ++k) hits += mesh.T(t, k) == f[0] || mesh.T(t, k) == f[1] || mesh.T(t, k) == f[2];
+      if (hits == 3) around.push_back(t);
+    }
+    const Eigen::Index m = mesh.numVertices();
+    mesh.V.conservativeResize(m + 1, 3);
+    mesh.V.row(m) = (mesh.V.row(f[0]) + mesh.V.row(f[1]) + mesh.V.row(f[2])) / 3.0;
+    for (auto& field : mesh.pointFields) {
+      field.values.conservativeResize(m + 1, field.values.cols());
+      field.values.row(m) = (field.values.row(f[0]) + field.values.row(f[1]) + field.values.row(f[2])) / 3.0;
+    }
+    for (Eigen::Index t : around) {
+      const Eigen::Index nt = mesh.numTets();
+      mesh.T.conservativeResize(nt + 2, 4);
+      mesh.region.conservativeResize(nt + 2);
+      for (auto& field : mesh.cellFields) field.values.conservativeResize(nt + 2, field.values.cols());
+      const Eigen::RowVector4i q = mesh.T.row(t);
+      // m lies in the face, so replacing one face vertex by it keeps the orientation.
+      int made = 0;
+      for (int k = 0; k < 4; ++k) {
+        if (q(k) != f[0] && q(k) != f[1] && q(k) != f[2]) continue;
+        Eigen::RowVector4i r = q;
+        r(k) = static_cast<int>(m);
+        const Eigen::Index row = made == 0 ? t : nt + made - 1;
+        mesh.T.row(row) = r;
+        mesh.region(row) = mesh.region(t);
+        for (auto& field : mesh.cellFields) field.values.row(row) = field.values.row(t);
+        ++made;
+      }
+    }
+  }
+  return static_cast<int>(interior.size());
+}
+
+int splitChordsOnly(TetMesh& mesh);
+
+}  // namespace
+
 int splitBoundaryChords(TetMesh& mesh) {
+  const int chords = splitChordsOnly(mesh);
+  return chords + splitBoundaryFaces(mesh);
+}
+
+namespace {
+
+int splitChordsOnly(TetMesh& mesh) {
   const std::vector<std::pair<int, int>> chords = findChords(mesh);
   if (chords.empty()) return 0;
 
@@ -158,5 +236,7 @@ int splitBoundaryChords(TetMesh& mesh) {
   mesh.pointFields = std::move(pointFields);
   return split;
 }
+
+}  // namespace
 
 }  // namespace tet2spline

@@ -69,8 +69,13 @@ struct ParamOptions {
   /// collapsed such pairs (sphere holding a density-4 sphere, 10k tets: 10
   /// tets left inverted, region fraction 0.178 for a target of 0.203; without
   /// edge vertices: 0 inverted, within 0.005). Without them boundary
-  /// triangles cut thin wedges off the cube's edges; corners are still taken.
+  /// triangles cut thin wedges off the cube's edges.
   bool cubeEdges = false;
+  /// Cube: put the boundary vertex that owns each corner on it. Off by
+  /// default for the same reason: face vertices next to a corner slid onto
+  /// it (part.off: 3 of 4 remaining inverted tets); without corners part.off
+  /// ends with 0. The cube's corners are then cut off by small triangles.
+  bool cubeCorners = false;
   /// One OT site per region where regions meet (parameterize.cpp buildSites).
   /// Measured on a sphere holding a density-4 sphere (2.5k tets, ball):
   /// region fraction 0.193 instead of 0.165 (target 0.203) straight after the
