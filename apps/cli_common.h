@@ -75,5 +75,7 @@ Command addCheckCommand(CLI::App& app);
 Command addMeshCommand(CLI::App& app);
 Command addParamCommand(CLI::App& app);
 Command addTransportCommand(CLI::App& app);
+Command addFitCommand(CLI::App& app);
+Command addConvertCommand(CLI::App& app);
 
 }  // namespace tet2spline::cli

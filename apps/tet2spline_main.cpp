@@ -22,6 +22,8 @@ int main(int argc, char** argv) {
   commands.push_back(cli::addMeshCommand(app));
   commands.push_back(cli::addParamCommand(app));
   commands.push_back(cli::addTransportCommand(app));
+  commands.push_back(cli::addFitCommand(app));
+  commands.push_back(cli::addConvertCommand(app));
 
   try {
     app.parse(argc, argv);

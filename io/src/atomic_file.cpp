@@ -7,6 +7,8 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <system_error>
 
 #include "tet2spline/param/error.h"
 
@@ -58,6 +60,52 @@ void AtomicFile::commit() {
     throwInputError(path_, 0, std::string("cannot rename the temporary file onto the target: ") + std::strerror(rerr));
   }
   committed_ = true;
+}
+
+StagedFiles::StagedFiles(std::string dir) : dir_(std::move(dir)) {
+  namespace fs = std::filesystem;
+  if (dir_.empty()) dir_ = ".";
+  while (dir_.size() > 1 && dir_.back() == '/') dir_.pop_back();
+  staging_ = dir_ + "/.tet2spline-staging." + std::to_string(::getpid()) + "." + std::to_string(g_counter++);
+  std::error_code ec;
+  if (!fs::create_directory(staging_, ec))
+    throwInputError(dir_, 0, "cannot create a staging folder for the outputs: " +
+                                 (ec ? ec.message() : std::string("it already exists")));
+}
+
+StagedFiles::~StagedFiles() {
+  std::error_code ec;
+  std::filesystem::remove_all(staging_, ec);
+}
+
+std::string StagedFiles::stagingPath(const std::string& name) {
+  if (name.empty() || name.find('/') != std::string::npos)
+    throw Error(ErrorKind::Usage, "StagedFiles: '" + name + "' is not a plain file name");
+  for (const auto& n : names_)
+    if (n == name) throw Error(ErrorKind::Usage, "StagedFiles: '" + name + "' staged twice");
+  if (committed_) throw Error(ErrorKind::Usage, "StagedFiles: staging '" + name + "' after commit()");
+  names_.push_back(name);
+  return staging_ + "/" + name;
+}
+
+std::string StagedFiles::finalPath(const std::string& name) const { return dir_ + "/" + name; }
+
+std::vector<std::string> StagedFiles::commit() {
+  std::vector<std::string> out;
+  if (committed_) return out;
+  namespace fs = std::filesystem;
+  for (const auto& n : names_) {
+    const std::string from = staging_ + "/" + n, to = finalPath(n);
+    std::error_code ec;
+    if (!fs::exists(from, ec)) continue;
+    if (std::rename(from.c_str(), to.c_str()) != 0)
+      throwInputError(to, 0, std::string("cannot move the output into place: ") + std::strerror(errno));
+    out.push_back(to);
+  }
+  committed_ = true;
+  std::error_code ec;
+  fs::remove_all(staging_, ec);
+  return out;
 }
 
 }  // namespace tet2spline

@@ -64,4 +64,18 @@ void writeMfemNurbsMesh(const spline::BSplineVolume& volume, const std::string& 
   file.commit();
 }
 
+void writeMfemElementRegions(const spline::BSplineVolume& volume, const std::vector<int>& elementRegion,
+                             const std::string& path) {
+  const Eigen::Vector3i ne = volume.numElements();
+  const long want = static_cast<long>(ne[0]) * ne[1] * ne[2];
+  if (static_cast<long>(elementRegion.size()) != want)
+    throw Error(ErrorKind::Usage, "writeMfemElementRegions: " + path + ": " + std::to_string(elementRegion.size()) +
+                                      " element regions for " + std::to_string(want) + " elements");
+  std::string x = "FiniteElementSpace\nFiniteElementCollection: L2_3D_P0\nVDim: 1\nOrdering: 0\n\n";
+  for (int r : elementRegion) x += std::to_string(r) + '\n';
+  AtomicFile file(path);
+  file.stream().write(x.data(), static_cast<std::streamsize>(x.size()));
+  file.commit();
+}
+
 }  // namespace tet2spline

@@ -427,6 +427,20 @@ SphericalMapResult sphericalMap(const SurfaceMesh& surface, const SphericalMapOp
         return result;
       }
     }
+    if (!done && result.U.size() > 0 && result.flippedTriangles > 0) {
+      // A few triangles flipped by negative cotangent weights (or rounding
+      // near the puncture): relax them locally with positive weights and keep
+      // the rest conformal. Far less distortion than a global Tutte embedding.
+      SphericalMapResult keep = result;
+      const int left = repairFlips(keep.U, F, options.maxRepairSweeps);
+      if (left == 0) {
+        finish(keep.U, result.method + "+repair");
+        if (result.flippedTriangles > 0) result.flippedTriangles = repairFlips(result.U, F, options.maxRepairSweeps);
+        normalizeRows(result.U);
+        result.flippedTriangles = countFlippedSphereTriangles(result.U, F);
+        done = result.flippedTriangles == 0;
+      }
+    }
     if (stopped(0.7, "conformal map")) return result;
   }
   if (!done) {

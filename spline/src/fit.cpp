@@ -414,11 +414,10 @@ ceres::Solver::Options solverOptions(int threads, int maxIterations) {
   return o;
 }
 
-/// Scalar parameter blocks of element el: coordinate c of local control l at [3l + c].
-std::vector<double*> elementBlocks(const std::vector<long>& idx, double* Pflat) {
-  std::vector<double*> blocks(3 * idx.size());
-  for (size_t l = 0; l < idx.size(); ++l)
-    for (int c = 0; c < 3; ++c) blocks[3 * l + static_cast<size_t>(c)] = Pflat + 3 * idx[l] + c;
+/// 3-vector parameter blocks of element el: control point l at [l].
+std::vector<double*> pointBlocks(const std::vector<long>& idx, double* Pflat) {
+  std::vector<double*> blocks(idx.size());
+  for (size_t l = 0; l < idx.size(); ++l) blocks[l] = Pflat + 3 * idx[l];
   return blocks;
 }
 std::vector<double*> coordinateBlocks(const std::vector<long>& idx, double* Pflat, int c) {
@@ -474,8 +473,7 @@ void addCompressedTerms(const Problem& pb, long el, const std::vector<long>& idx
     R.row(r) = sq * q.transpose();
     D.row(r) = (q.transpose() * b) / sq;
   }
-  for (int c = 0; c < 3; ++c)
-    problem.AddResidualBlock(new detail::ElementQuadraticCost(R, D.col(c)), nullptr, coordinateBlocks(idx, Pflat, c));
+  problem.AddResidualBlock(new detail::ElementQuadraticCost3(R, D), nullptr, pointBlocks(idx, Pflat));
 }
 
 LinearOutcome solveCeresLinear(const Problem& pb, int threads) {
@@ -564,7 +562,7 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
       L.localControls(el, idx);
       if (std::none_of(idx.begin(), idx.end(), [&](long c) { return freeCtrl.count(c) > 0; })) continue;
       addCompressedTerms(pb, el, idx, Pflat.data(), problem);
-      const std::vector<double*> blocks = elementBlocks(idx, Pflat.data());
+      const std::vector<double*> blocks = pointBlocks(idx, Pflat.data());
       const auto ei = L.elementIndex(el);
       int g = 0;
       for (int gc = 0; gc < T[2].ng; ++gc)
@@ -581,8 +579,7 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
       used.insert(idx.begin(), idx.end());
     }
     for (long c : used)
-      if (!freeCtrl.count(c))
-        for (int k = 0; k < 3; ++k) problem.SetParameterBlockConstant(Pflat.data() + 3 * c + k);
+      if (!freeCtrl.count(c)) problem.SetParameterBlockConstant(Pflat.data() + 3 * c);
     ceres::Solver::Options o = solverOptions(opt.threads, opt.maxSolverIterations);
     // The outer loop raises μ anyway: an approximate minimiser per μ is enough.
     o.function_tolerance = 1e-7;

@@ -4,11 +4,15 @@
 // element (#local = (p+1)(q+1)(r+1), local order u fastest) and has analytic
 // derivatives.
 //
-// Parameter blocks are scalars: one per coordinate of each control point.
-// The data and smoothing terms act on the x, y and z coordinates separately
-// (the same basis for each), so with 3-vectors as blocks two thirds of every
-// Jacobian block would be structural zeros that Ceres would still multiply
-// when it forms JᵀJ; scalar blocks keep JᵀJ exact and about 9 times cheaper.
+// The linear stage (PointDataCost, ElementQuadraticCost) uses scalar blocks,
+// one per coordinate of each control point: its terms act on x, y and z
+// separately, so 3-vector blocks would be two thirds structural zeros.
+// The validity stage (DetJPenaltyCost, ElementQuadraticCost3) uses one
+// 3-vector block per control point: det J couples the three coordinates, and
+// Ceres' cost of forming JᵀJ grows with the number of block pairs (each
+// penalty residual touches 3·#local scalar blocks = (3·#local)² pairs, which
+// made InnerProductComputer dominate the profile: measured 55 s for 729
+// control points with scalar blocks).
 
 #include <ceres/cost_function.h>
 
@@ -76,7 +80,7 @@ class ElementQuadraticCost final : public ceres::CostFunction {
 };
 
 /// Validity penalty at one Gauss point: s · max(0, τ − det J), one residual.
-/// Blocks: 3·#local scalars, block 3l + c = coordinate c of control point l.
+/// Blocks: #local 3-vectors, block l = control point l.
 /// G (3 × #local) holds ∂/∂u, ∂/∂v, ∂/∂w of the tensor basis at the point,
 /// so J = [x_u x_v x_w] with x_d = Σ_l G(d,l) P_l and
 /// ∂ det J / ∂P_l = G(0,l) x_v×x_w + G(1,l) x_w×x_u + G(2,l) x_u×x_v.
@@ -85,12 +89,12 @@ class DetJPenaltyCost final : public ceres::CostFunction {
   DetJPenaltyCost(Eigen::Matrix3Xd G, double threshold, double scale)
       : G_(std::move(G)), tau_(threshold), s_(scale) {
     set_num_residuals(1);
-    mutable_parameter_block_sizes()->assign(static_cast<size_t>(3 * G_.cols()), 1);
+    mutable_parameter_block_sizes()->assign(static_cast<size_t>(G_.cols()), 3);
   }
   static double detJ(const Eigen::Matrix3Xd& G, double const* const* P, Eigen::Matrix3d* Jout = nullptr) {
     Eigen::Matrix3d Jm = Eigen::Matrix3d::Zero();
     for (Eigen::Index l = 0; l < G.cols(); ++l) {
-      const Eigen::Vector3d Pl(P[3 * l][0], P[3 * l + 1][0], P[3 * l + 2][0]);
+      const Eigen::Vector3d Pl(P[l][0], P[l][1], P[l][2]);
       Jm += Pl * G.col(l).transpose();
     }
     if (Jout) *Jout = Jm;
@@ -107,8 +111,8 @@ class DetJPenaltyCost final : public ceres::CostFunction {
       for (Eigen::Index l = 0; l < G_.cols(); ++l) {
         const Eigen::Vector3d g = active ? Eigen::Vector3d(-s_ * (G_(0, l) * cu + G_(1, l) * cv + G_(2, l) * cw))
                                          : Eigen::Vector3d::Zero();
-        for (int c = 0; c < 3; ++c)
-          if (J[3 * l + c]) J[3 * l + c][0] = g[c];
+        if (J[l])
+          for (int c = 0; c < 3; ++c) J[l][c] = g[c];
       }
     }
     return true;
@@ -117,6 +121,38 @@ class DetJPenaltyCost final : public ceres::CostFunction {
  private:
   Eigen::Matrix3Xd G_;
   double tau_, s_;
+};
+
+/// ElementQuadraticCost for the three coordinates at once, on 3-vector blocks
+/// (the validity stage's layout): r = [R p_x − d_x; R p_y − d_y; R p_z − d_z],
+/// block l = control point l, so the Jacobian block of l is R(:,l) ⊗ I_3
+/// arranged as 3m × 3 (row c·m + i, column c).
+class ElementQuadraticCost3 final : public ceres::CostFunction {
+ public:
+  ElementQuadraticCost3(Eigen::MatrixXd R, Eigen::MatrixX3d D) : R_(std::move(R)), D_(std::move(D)) {
+    set_num_residuals(static_cast<int>(3 * R_.rows()));
+    mutable_parameter_block_sizes()->assign(static_cast<size_t>(R_.cols()), 3);
+  }
+  bool Evaluate(double const* const* P, double* r, double** J) const override {
+    const Eigen::Index m = R_.rows(), n = R_.cols();
+    Eigen::MatrixX3d p(n, 3);
+    for (Eigen::Index l = 0; l < n; ++l) p.row(l) << P[l][0], P[l][1], P[l][2];
+    Eigen::Map<Eigen::MatrixX3d> res(r, m, 3);  // column c = residuals of coordinate c
+    res = R_ * p - D_;
+    if (J) {
+      for (Eigen::Index l = 0; l < n; ++l) {
+        if (!J[l]) continue;
+        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> Jl(J[l], 3 * m, 3);
+        Jl.setZero();
+        for (int c = 0; c < 3; ++c) Jl.block(c * m, c, m, 1) = R_.col(l);
+      }
+    }
+    return true;
+  }
+
+ private:
+  Eigen::MatrixXd R_;
+  Eigen::MatrixX3d D_;
 };
 
 }  // namespace tet2spline::spline::detail

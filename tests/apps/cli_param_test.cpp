@@ -20,7 +20,7 @@ std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
 TEST(CliParam, BadOptionsExitWithStatus2BeforeAnyWork) {
   const auto dir = t2stest::scratchDir("cli_param_usage");
   const std::string in = q(t2stest::cgalMesh("blob-closed"));
-  for (const std::string args :
+  for (const std::string& args :
        {"param " + in + " -o x.vtu --domain disk", "param " + in + " -o x.vtu --density 2",
         "param " + in + " -o x.vtu --density a=4", "param " + in + " -o x.vtu --density 2=-1",
         "param " + in + " -o x.vtu --no-transport --domain cube", "param " + in + " -o x.mesh",

@@ -55,6 +55,54 @@ TEST(AtomicFile, NoCommitLeavesNothing) {
   EXPECT_EQ(filesIn(dir), 0u);
 }
 
+// StagedFiles: a set of outputs appears together on commit, or not at all.
+TEST(StagedFiles, CommitMovesEveryWrittenFileTogether) {
+  const std::string dir = scratchDir("staged_commit");
+  writeFile(dir + "/b.txt", "old");
+  std::vector<std::string> moved;
+  {
+    StagedFiles out(dir);
+    writeFile(out.stagingPath("a.txt"), "A");
+    {
+      AtomicFile f(out.stagingPath("b.txt"));
+      f.stream() << "B";
+      f.commit();
+    }
+    out.stagingPath("never_written.txt");
+    EXPECT_FALSE(fs::exists(dir + "/a.txt")) << "nothing appears before commit";
+    EXPECT_EQ(readFile(dir + "/b.txt"), "old");
+    EXPECT_EQ(out.finalPath("a.txt"), dir + "/a.txt");
+    moved = out.commit();
+  }
+  EXPECT_EQ(moved, (std::vector<std::string>{dir + "/a.txt", dir + "/b.txt"}));
+  EXPECT_EQ(readFile(dir + "/a.txt"), "A");
+  EXPECT_EQ(readFile(dir + "/b.txt"), "B");
+  EXPECT_EQ(filesIn(dir), 2u) << "staging folder left behind";
+}
+
+TEST(StagedFiles, NoCommitLeavesTheFolderAsItWas) {
+  const std::string dir = scratchDir("staged_abort");
+  writeFile(dir + "/keep.txt", "mine");
+  try {
+    StagedFiles out(dir);
+    writeFile(out.stagingPath("a.txt"), "A");
+    throw std::runtime_error("a later stage failed");
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_EQ(filesIn(dir), 1u);
+  EXPECT_EQ(readFile(dir + "/keep.txt"), "mine");
+}
+
+TEST(StagedFiles, RefusesBadNamesAndMissingFolders) {
+  const std::string dir = scratchDir("staged_bad");
+  StagedFiles out(dir);
+  out.stagingPath("a.txt");
+  EXPECT_THROW(out.stagingPath("a.txt"), Error);
+  EXPECT_THROW(out.stagingPath("sub/a.txt"), Error);
+  EXPECT_THROW(out.stagingPath(""), Error);
+  expectInputError([&] { StagedFiles s(dir + "/missing"); }, dir + "/missing", 0, "staging folder");
+}
+
 TEST(AtomicFile, UnwritableDirectoryNamesThePath) {
   const std::string path = scratchDir("atomic_missing") + "/no/such/dir/out.vtu";
   expectInputError([&] { AtomicFile f(path); }, path, 0, "cannot write");

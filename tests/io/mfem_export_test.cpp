@@ -211,3 +211,29 @@ TEST(MfemExport, DeterministicAndUnwritable) {
 }
 
 }  // namespace
+
+// Element regions as an MFEM GridFunction: GridFunction::Save's header for a
+// piecewise-constant L2 space, then one value per element in MFEM's element
+// order (u fastest, as BSplineVolume::elements()); a wrong count is refused
+// before any file exists.
+TEST(MfemExport, ElementRegionsGridFunction) {
+  const std::string dir = scratchDir("mfem_regions");
+  const BSplineVolume V = curvedCube();  // 3 × 2 × 4 elements
+  const auto elements = V.elements();
+  std::vector<int> region;
+  for (const auto& e : elements) region.push_back(e.centre[2] < 0.5 ? 7 : 1);
+  const std::string path = dir + "/r.gf";
+  tet2spline::writeMfemElementRegions(V, region, path);
+  std::istringstream in(readFile(path));
+  std::string line;
+  for (const char* want : {"FiniteElementSpace", "FiniteElementCollection: L2_3D_P0", "VDim: 1", "Ordering: 0", ""}) {
+    std::getline(in, line);
+    EXPECT_EQ(line, want);
+  }
+  std::vector<int> back;
+  for (int x; in >> x;) back.push_back(x);
+  EXPECT_EQ(back, region);
+  EXPECT_EQ(back.size(), 24u);
+  EXPECT_THROW(tet2spline::writeMfemElementRegions(V, {1, 2}, dir + "/bad.gf"), tet2spline::Error);
+  EXPECT_FALSE(fs::exists(dir + "/bad.gf"));
+}

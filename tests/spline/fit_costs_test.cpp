@@ -16,12 +16,13 @@ namespace {
 
 constexpr int kLocal = 27;  // a degree-2 element: 3 × 3 × 3 control points
 
-/// 27 control points; blocks are scalars: all of them (coordinate c of point l
-/// at 3l + c), or one coordinate's 27 values.
+/// 27 control points; blocks are scalars (one coordinate's 27 values:
+/// `coordinate` 0..2) or 3-vectors (coordinate = kPoints: block l = point l).
+constexpr int kPoints = -2;
 struct Params {
   std::vector<double> values;
   std::vector<const double*> blocks;
-  explicit Params(unsigned seed, int coordinate = -1) : values(3 * kLocal) {
+  explicit Params(unsigned seed, int coordinate = kPoints) : values(3 * kLocal) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> uni(-0.2, 0.2);
     // Near the identity grid (det J > 0), perturbed.
@@ -30,9 +31,10 @@ struct Params {
       values[3 * l + 1] = (l / 3 % 3) / 2.0 + uni(rng);
       values[3 * l + 2] = (l / 9) / 2.0 + uni(rng);
     }
-    for (int l = 0; l < kLocal; ++l)
-      for (int c = 0; c < 3; ++c)
-        if (coordinate < 0 || coordinate == c) blocks.push_back(&values[3 * l + c]);
+    for (int l = 0; l < kLocal; ++l) {
+      if (coordinate == kPoints) blocks.push_back(&values[3 * l]);
+      else blocks.push_back(&values[3 * l + coordinate]);
+    }
   }
 };
 
@@ -115,4 +117,21 @@ TEST(FitCosts, DetJPenaltyCostDerivativesOnBothSidesOfTheThreshold) {
   }
   EXPECT_EQ(active, 10);
   EXPECT_EQ(inactive, 10);
+}
+
+TEST(FitCosts, ElementQuadraticCost3DerivativesAndValue) {
+  std::srand(4);
+  const Eigen::MatrixXd R = Eigen::MatrixXd::Random(20, kLocal);
+  const Eigen::MatrixX3d D = Eigen::MatrixX3d::Random(20, 3);
+  const ElementQuadraticCost3 cost(R, D);
+  for (unsigned s = 0; s < 5; ++s) {
+    const Params x(s);
+    expectDerivativesMatch(cost, x);
+    Eigen::MatrixX3d P(kLocal, 3);
+    for (int l = 0; l < kLocal; ++l) P.row(l) << x.blocks[l][0], x.blocks[l][1], x.blocks[l][2];
+    std::vector<double> r(60);
+    ASSERT_TRUE(cost.Evaluate(x.blocks.data(), r.data(), nullptr));
+    // The same residuals as ElementQuadraticCost per coordinate.
+    EXPECT_LT((Eigen::Map<Eigen::MatrixX3d>(r.data(), 20, 3) - (R * P - D)).norm(), 1e-12);
+  }
 }

@@ -29,9 +29,11 @@
 /// Materials: MFEM's NURBS patch topology has one element attribute per
 /// patch (the refined NURBS elements inherit it), so the patch gets
 /// `elementAttribute` (default 1). Per-element regions are not representable
-/// in this single-patch form; they are in the VTU and G+Smo exports.
+/// in this single-patch form; writeMfemElementRegions writes them as an MFEM
+/// GridFunction file beside the mesh (and they are in the VTU and G+Smo exports).
 
 #include <string>
+#include <vector>
 
 #include "tet2spline/spline/bspline_volume.h"
 
@@ -46,5 +48,24 @@ struct MfemExportOptions {
 /// cannot be written.
 void writeMfemNurbsMesh(const spline::BSplineVolume& volume, const std::string& path,
                         const MfemExportOptions& options = {});
+
+/// The region of each Bézier element as an MFEM GridFunction (the format of
+/// mfem::GridFunction::Save, read by GridFunction(Mesh*, std::istream&)) on
+/// the mesh written by writeMfemNurbsMesh: a piecewise-constant L2 space,
+///
+///   FiniteElementSpace
+///   FiniteElementCollection: L2_3D_P0
+///   VDim: 1
+///   Ordering: 0
+///   <blank line>
+///   one value per element
+///
+/// MFEM numbers the elements of a NURBS patch with u fastest, then v, then w
+/// (NURBSExtension::Get3DElementTopo, non-empty spans only), which is the
+/// order of BSplineVolume::elements() and of `elementRegion`. Throws
+/// Error(Usage) when the size is not the number of elements (before creating
+/// any file) and Error(Input) naming the path when it cannot be written.
+void writeMfemElementRegions(const spline::BSplineVolume& volume, const std::vector<int>& elementRegion,
+                             const std::string& path);
 
 }  // namespace tet2spline

@@ -19,7 +19,13 @@
 ///  3. exact check: a triangle (a,b,c) of the outward oriented surface is
 ///     flipped when orient3d(0, u_a, u_b, u_c) <= 0 (exact predicates).
 /// The cotangent weights of step 1 can be negative, so it is not bijective in
-/// theory; when it leaves flipped triangles, the Tutte embedding (uniform
+/// theory; when it leaves flipped triangles, they are first relaxed locally
+/// (spherical Tutte relaxation of their rings, below) and the rest of the map
+/// stays conformal ("conformal+repair"). Measured on the meshed test solids:
+/// triceratops went from a global Tutte map (angle distortion mean 66, 599
+/// inverted tets, 232 s of untangling, 6 tets left inverted) to conformal+repair
+/// (mean 18, untangled to zero in 43 s); hand and homer also take this route.
+/// Only when the local repair fails does the Tutte embedding (uniform
 /// positive weights: a bijection of the punctured sphere onto the triangle,
 /// Tutte 1963) replaces it, still Möbius-normalised, and any triangle that
 /// remains flipped after rounding (tiny triangles near the puncture) is
@@ -53,7 +59,7 @@ struct SphericalMapResult {
   double angleDistortionMax = 0;
   double centreOffset = 0;             ///< |Σ m_i u_i| / Σ m_i after normalisation
   int mobiusIterations = 0;
-  std::string method;                  ///< "conformal", "tutte" or "tutte+repair"
+  std::string method;                  ///< "conformal", "conformal+repair", "tutte" or "tutte+repair"
   Status status;                       ///< failure when flips remain or progress stopped it
 };
 
