@@ -29,6 +29,7 @@ struct InputOptions {
   bool voids = false;
   double deflection = 1e-3;
   int solid = 0;
+  bool keepSurface = false;
 
   void addTo(CLI::App* cmd);
   LoadOptions loadOptions(bool validate) const;
