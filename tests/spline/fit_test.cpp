@@ -122,13 +122,16 @@ TEST(Fit, SmoothingFillsElementsWithoutData) {
   EXPECT_NE(s.status.message.find("normal equations"), std::string::npos) << s.status.message;
 }
 
-TEST(Fit, ValidityStageRepairsAFold) {
+class FitValidity : public ::testing::TestWithParam<FitOptions::ValiditySolver> {};
+
+TEST_P(FitValidity, RepairsAFold) {
   // x(u) = u + 0.12 sin(6πu) is not monotone: a close fit folds (det J < 0).
   const Eigen::MatrixX3d U = randomParameters(6000, 6);
   const Eigen::MatrixX3d X = apply(U, [](const Eigen::Vector3d& u) {
     return Eigen::Vector3d(u[0] + 0.12 * std::sin(6 * M_PI * u[0]), u[1], u[2]);
   });
   FitOptions opt;
+  opt.validitySolver = GetParam();
   opt.elements = {6, 2, 2};
   opt.smoothingWeight = 1e-8;
   opt.enforceValidity = false;
@@ -150,6 +153,10 @@ TEST(Fit, ValidityStageRepairsAFold) {
   // Unfolding costs accuracy, but the fit still follows the data's trend.
   EXPECT_LT(r.rmsErrorRelative, 0.1);
 }
+
+INSTANTIATE_TEST_SUITE_P(Solvers, FitValidity,
+                         ::testing::Values(FitOptions::ValiditySolver::Lbfgs,
+                                           FitOptions::ValiditySolver::LevenbergMarquardt));
 
 TEST(Fit, RefinesUntilTheTargetError) {
   const Eigen::MatrixX3d U = randomParameters(20000, 7);

@@ -55,7 +55,13 @@ struct FitOptions {
   bool enforceValidity = true;            ///< run the validity stage when det J <= 0 somewhere
   double validityFraction = 0.05;         ///< τ / J̄ in (2)
   int maxValidityIterations = 8;          ///< outer (μ) iterations of the validity stage
-  int maxSolverIterations = 25;           ///< Ceres iterations per validity iteration
+  int maxSolverIterations = 25;           ///< Ceres Levenberg–Marquardt iterations per validity iteration
+  /// Validity stage solver (both Ceres): L-BFGS on (1)+(2) over the free
+  /// control points (ceres::GradientProblemSolver; data term through the
+  /// assembled normal equations), or Levenberg–Marquardt on residual blocks
+  /// (ceres::Problem, SPARSE_NORMAL_CHOLESKY). Chosen by measurement (see fit.cpp).
+  enum class ValiditySolver { Lbfgs, LevenbergMarquardt } validitySolver = ValiditySolver::Lbfgs;
+  int maxLbfgsIterations = 2000;          ///< L-BFGS iterations per validity iteration
   /// Linear stage (1): CHOLMOD on the assembled normal equations (fast), or
   /// the same objective as a Ceres problem (SPARSE_NORMAL_CHOLESKY).
   enum class LinearSolver { Cholmod, Ceres } linearSolver = LinearSolver::Cholmod;
