@@ -158,6 +158,29 @@ TEST(ConvertCli, RealMeshEndToEnd) {
   EXPECT_NEAR(j["regions"][0]["target_volume_fraction"].get<double>(), 1, 1e-12);
 }
 
+// The CAD demo with a void (STEP, read and tessellated by OpenCASCADE): the
+// void is filled with tets tagged as a void region, keeps its share of the
+// parametric volume, its elements are tagged, and the report says that the
+// STEP/IGES solid is the outer boundary only.
+TEST(ConvertCli, CadSolidWithAVoid) {
+  const auto dir = t2stest::scratchDir("convert_void");
+  const fs::path out = dir / "out";
+  const auto r = runCli("convert " + q(t2stest::sourceDir() + "/models/block_with_void.step") + " -o " + q(out) +
+                            " --voids --elements 8 -q",
+                        dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = readJson(out / "report.json");
+  expectSoundRun(out, j);
+  EXPECT_EQ(j["voids"], 1);
+  ASSERT_EQ(j["regions"].size(), 2u);
+  EXPECT_EQ(j["regions"][0]["void"], false);
+  EXPECT_EQ(j["regions"][1]["void"], true);
+  EXPECT_GT(j["regions"][1]["elements"].get<long>(), 0);
+  bool warned = false;
+  for (const auto& w : j["warnings"]) warned = warned || w.get<std::string>().find("STEP/IGES") != std::string::npos;
+  EXPECT_TRUE(warned) << j["warnings"];
+}
+
 // Refused input: the documented status, one line naming the file and the
 // cause, and no output folder (or an existing one left as it was).
 TEST(ConvertCli, FailuresLeaveNothingBehind) {
