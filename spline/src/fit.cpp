@@ -678,22 +678,31 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
       L.localControls(el, idx);
       freeCtrl.insert(idx.begin(), idx.end());
     }
+    // The elements that touch a free control point take part, with their
+    // Gauss points near or below τ. Points far above τ stay inactive through
+    // one solve; the outer loop catches any that drop (and JᵀJ is cheaper).
+    auto touchesFree = [&](const std::vector<long>& ctrl) {
+      return std::any_of(ctrl.begin(), ctrl.end(), [&](long c) { return freeCtrl.count(c) > 0; });
+    };
+    Eigen::Matrix3Xd G;
+    auto forEachPenalty = [&](long el, const std::function<void(const Eigen::Matrix3Xd&, double)>& add) {
+      const auto ei = L.elementIndex(el);
+      int g = 0;
+      for (int gc = 0; gc < T[2].ng; ++gc)
+        for (int gb = 0; gb < T[1].ng; ++gb)
+          for (int ga = 0; ga < T[0].ng; ++ga, ++g) {
+            const size_t at = static_cast<size_t>(el * gj.ngTot + g);
+            if (gj.detJ[at] > 4.0 * tau) continue;
+            tensorGradient(L, T, ei, ga, gb, gc, G);
+            add(G, std::sqrt(mu * gj.omega[at]) * diag / Jbar);
+          }
+    };
     if (lbfgs) {
       std::vector<ValidityObjective::Penalty> pens;
-      Eigen::Matrix3Xd G;
       for (long el = 0; el < L.numElements(); ++el) {
         L.localControls(el, idx);
-        if (std::none_of(idx.begin(), idx.end(), [&](long c) { return freeCtrl.count(c) > 0; })) continue;
-        const auto ei = L.elementIndex(el);
-        int g = 0;
-        for (int gc = 0; gc < T[2].ng; ++gc)
-          for (int gb = 0; gb < T[1].ng; ++gb)
-            for (int ga = 0; ga < T[0].ng; ++ga, ++g) {
-              const size_t at = static_cast<size_t>(el * gj.ngTot + g);
-              if (gj.detJ[at] > 4.0 * tau) continue;
-              tensorGradient(L, T, ei, ga, gb, gc, G);
-              pens.push_back({G, idx, std::sqrt(mu * gj.omega[at]) * diag / Jbar});
-            }
+        if (!touchesFree(idx)) continue;
+        forEachPenalty(el, [&](const Eigen::Matrix3Xd& Gp, double scale) { pens.push_back({Gp, idx, scale}); });
       }
       auto* f = new ValidityObjective(Afull, rhs, Pflat, std::vector<long>(freeCtrl.begin(), freeCtrl.end()),
                                       std::move(pens), tau, opt.threads);
@@ -713,38 +722,27 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
       f->scatter(x.data());
       out.solverIterations += static_cast<int>(gs.iterations.size());
     } else {
-    ceres::Problem problem;
-    std::set<long> used;
-    Eigen::Matrix3Xd G;
-    for (long el = 0; el < L.numElements(); ++el) {
-      L.localControls(el, idx);
-      if (std::none_of(idx.begin(), idx.end(), [&](long c) { return freeCtrl.count(c) > 0; })) continue;
-      addCompressedTerms(pb, el, idx, Pflat.data(), problem);
-      const std::vector<double*> blocks = pointBlocks(idx, Pflat.data());
-      const auto ei = L.elementIndex(el);
-      int g = 0;
-      for (int gc = 0; gc < T[2].ng; ++gc)
-        for (int gb = 0; gb < T[1].ng; ++gb)
-          for (int ga = 0; ga < T[0].ng; ++ga, ++g) {
-            // Points far above τ stay inactive through one solve; the outer
-            // loop catches any that drop, so leave them out (cheaper JᵀJ).
-            const size_t at = static_cast<size_t>(el * gj.ngTot + g);
-            if (gj.detJ[at] > 4.0 * tau) continue;
-            tensorGradient(L, T, ei, ga, gb, gc, G);
-            const double scale = std::sqrt(mu * gj.omega[at]) * diag / Jbar;
-            problem.AddResidualBlock(new detail::DetJPenaltyCost(G, tau, scale), nullptr, blocks);
-          }
-      used.insert(idx.begin(), idx.end());
-    }
-    for (long c : used)
-      if (!freeCtrl.count(c)) problem.SetParameterBlockConstant(Pflat.data() + 3 * c);
-    ceres::Solver::Options o = solverOptions(opt.threads, opt.maxSolverIterations);
-    // The outer loop raises μ anyway: an approximate minimiser per μ is enough.
-    o.function_tolerance = 1e-7;
-    o.parameter_tolerance = 1e-9;
-    ceres::Solver::Summary summary;
-    ceres::Solve(o, &problem, &summary);
-    out.solverIterations += static_cast<int>(summary.iterations.size());
+      ceres::Problem problem;
+      std::set<long> used;
+      for (long el = 0; el < L.numElements(); ++el) {
+        L.localControls(el, idx);
+        if (!touchesFree(idx)) continue;
+        addCompressedTerms(pb, el, idx, Pflat.data(), problem);
+        const std::vector<double*> blocks = pointBlocks(idx, Pflat.data());
+        forEachPenalty(el, [&](const Eigen::Matrix3Xd& Gp, double scale) {
+          problem.AddResidualBlock(new detail::DetJPenaltyCost(Gp, tau, scale), nullptr, blocks);
+        });
+        used.insert(idx.begin(), idx.end());
+      }
+      for (long c : used)
+        if (!freeCtrl.count(c)) problem.SetParameterBlockConstant(Pflat.data() + 3 * c);
+      ceres::Solver::Options o = solverOptions(opt.threads, opt.maxSolverIterations);
+      // The outer loop raises μ anyway: an approximate minimiser per μ is enough.
+      o.function_tolerance = 1e-7;
+      o.parameter_tolerance = 1e-9;
+      ceres::Solver::Summary summary;
+      ceres::Solve(o, &problem, &summary);
+      out.solverIterations += static_cast<int>(summary.iterations.size());
     }
     V.setControlPoints(Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(Pflat.data(), nc, 3));
     gj = gaussJacobians(V, L, T, opt.threads);
