@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -52,6 +53,16 @@ inline RunResult runCli(const std::string& args, const std::filesystem::path& di
   std::filesystem::remove(outFile);
   std::filesystem::remove(errFile);
   return r;
+}
+
+/// `p` in single quotes, for the command lines runCli passes to the shell.
+inline std::string q(const std::filesystem::path& p) { return "'" + p.string() + "'"; }
+
+/// Names of the files in `dir`, as a set (compare with the expected outputs).
+inline std::set<std::string> filesIn(const std::filesystem::path& dir) {
+  std::set<std::string> s;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) s.insert(e.path().filename().string());
+  return s;
 }
 
 /// Files in `dir` (names only), to prove that a failure left nothing behind.

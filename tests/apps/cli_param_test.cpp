@@ -10,11 +10,12 @@
 #include "tet2spline/param/topology.h"
 
 namespace fs = std::filesystem;
+using t2stest::filesIn;
+using t2stest::q;
 using t2stest::runCli;
 using json = nlohmann::json;
 
 namespace {
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
 }  // namespace
 
 TEST(CliParam, BadOptionsExitWithStatus2BeforeAnyWork) {

@@ -6,10 +6,11 @@
 #include "cli_runner.h"
 
 namespace fs = std::filesystem;
+using t2stest::filesIn;
+using t2stest::q;
 using t2stest::runCli;
 
 namespace {
-std::string q(const std::string& p) { return "'" + p + "'"; }
 
 void expectRefused(const std::string& name, int status, const std::string& cause) {
   const auto dir = t2stest::scratchDir("refuse_" + name);

@@ -8,6 +8,8 @@
 #include "cli_runner.h"
 
 namespace fs = std::filesystem;
+using t2stest::filesIn;
+using t2stest::q;
 using t2stest::runCli;
 
 namespace {
@@ -18,7 +20,6 @@ fs::path writeText(const fs::path& dir, const std::string& name, const std::stri
   return p;
 }
 
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
 
 // A closed octahedron surface: the smallest well-shaped genus-0 solid.
 const char* kOctahedron =

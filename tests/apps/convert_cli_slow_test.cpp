@@ -27,18 +27,14 @@
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using t2stest::filesIn;
+using t2stest::q;
 using t2stest::runCli;
 
 namespace {
 
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
 json readJson(const fs::path& p) { return json::parse(t2stest::slurp(p)); }
 
-std::set<std::string> filesIn(const fs::path& dir) {
-  std::set<std::string> s;
-  for (const auto& e : fs::directory_iterator(dir)) s.insert(e.path().filename().string());
-  return s;
-}
 
 const std::set<std::string> kOutputs = {"param.vtu",   "spline.step", "spline.igs",        "spline.xml",
                                         "spline.mfem", "spline.vtu",  "spline_regions.gf", "control_net.vtu",

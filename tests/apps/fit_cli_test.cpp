@@ -20,11 +20,12 @@
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using t2stest::filesIn;
+using t2stest::q;
 using t2stest::runCli;
 
 namespace {
 
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
 
 json readJson(const fs::path& p) { return json::parse(t2stest::slurp(p)); }
 
@@ -47,11 +48,6 @@ const std::set<std::string> kOutputs = {"spline.step", "spline.igs",      "splin
                                         "spline.mfem", "spline_regions.gf", "spline.vtu",
                                         "control_net.vtu", "report.json"};
 
-std::set<std::string> filesIn(const fs::path& dir) {
-  std::set<std::string> s;
-  for (const auto& e : fs::directory_iterator(dir)) s.insert(e.path().filename().string());
-  return s;
-}
 
 }  // namespace
 
