@@ -2,6 +2,8 @@
 /// Runs the tet2spline program as a user would and captures what it says.
 #include <sys/wait.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -57,6 +59,9 @@ inline RunResult runCli(const std::string& args, const std::filesystem::path& di
 
 /// `p` in single quotes, for the command lines runCli passes to the shell.
 inline std::string q(const std::filesystem::path& p) { return "'" + p.string() + "'"; }
+
+/// A JSON file (report.json, check --json output saved to a file).
+inline nlohmann::json readJson(const std::filesystem::path& p) { return nlohmann::json::parse(slurp(p)); }
 
 /// Names of the files in `dir`, as a set (compare with the expected outputs).
 inline std::set<std::string> filesIn(const std::filesystem::path& dir) {

@@ -40,7 +40,7 @@ TEST(CliParam, HarmonicBallMapWithoutTransport) {
                             " --domain ball --no-transport -q --report " + q(rep),
                         dir);
   ASSERT_EQ(r.status, 0) << r.err;
-  const json j = json::parse(t2stest::slurp(rep));
+  const json j = t2stest::readJson(rep);
   for (const char* key : {"sphere", "ball", "param", "timings"}) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["sphere"]["flipped_triangles"], 0);
   EXPECT_EQ(j["ball"]["inverted_tets"], 0);
@@ -70,7 +70,7 @@ TEST(CliParam, BallTransportConservesMassAndKeepsTheBoundaryOnTheSphere) {
   const auto out = dir / "p.vtu", rep = dir / "r.json";
   const auto r = runCli("param " + q(t2stest::cgalMesh("blob-closed")) + " -o " + q(out) + " --domain ball -q --report " + q(rep), dir);
   ASSERT_EQ(r.status, 0) << r.err;
-  const json j = json::parse(t2stest::slurp(rep));
+  const json j = t2stest::readJson(rep);
   EXPECT_LE(j["ot"]["max_relative_mass_error"].get<double>(), 1e-6);
   EXPECT_EQ(j["ot"]["step_sizes"].size(), j["ot"]["iterations"].get<size_t>());
   EXPECT_EQ(j["param"]["inverted_tets"], 0);

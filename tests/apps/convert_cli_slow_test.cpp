@@ -29,12 +29,10 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using t2stest::filesIn;
 using t2stest::q;
+using t2stest::readJson;
 using t2stest::runCli;
 
 namespace {
-
-json readJson(const fs::path& p) { return json::parse(t2stest::slurp(p)); }
-
 
 const std::set<std::string> kOutputs = {"param.vtu",   "spline.step", "spline.igs",        "spline.xml",
                                         "spline.mfem", "spline.vtu",  "spline_regions.gf", "control_net.vtu",
@@ -114,17 +112,25 @@ void expectSoundRun(const fs::path& out, const json& j) {
   EXPECT_LE(U->values.maxCoeff(), 1.0);
 }
 
+/// `convert IN -o <scratch>/out ARGS` in a fresh scratch folder `name`.
+struct ConvertRun {
+  t2stest::RunResult result;
+  fs::path out;
+};
+ConvertRun convert(const std::string& name, const fs::path& in, const std::string& args) {
+  const auto dir = t2stest::scratchDir(name);
+  const fs::path out = dir / "out";
+  return {runCli("convert " + q(in) + " -o " + q(out) + " " + args, dir), out};
+}
+
 }  // namespace
 
 // The two-material demo with region 2 at density 4: the inner sphere gets four
 // times the parametric volume per unit of physical volume, hence about four
 // times the Bézier elements per unit volume.
 TEST(ConvertCli, TwoMaterialDemoWithDensityFour) {
-  const auto dir = t2stest::scratchDir("convert_two_material");
-  const fs::path out = dir / "out";
-  const auto r = runCli("convert " + q(t2stest::sourceDir() + "/models/two_material.off") + " -o " + q(out) +
-                            " --density 2=4 --elements 8",
-                        dir);
+  const auto [r, out] =
+      convert("convert_two_material", t2stest::sourceDir() + "/models/two_material.off", "--density 2=4 --elements 8");
   ASSERT_EQ(r.status, 0) << r.err;
   const json j = readJson(out / "report.json");
   expectSoundRun(out, j);
@@ -143,9 +149,7 @@ TEST(ConvertCli, TwoMaterialDemoWithDensityFour) {
 
 // A real mesh nobody here wrote (Debian's libcgal-demo data), volume preserving.
 TEST(ConvertCli, RealMeshEndToEnd) {
-  const auto dir = t2stest::scratchDir("convert_blobby");
-  const fs::path out = dir / "out";
-  const auto r = runCli("convert " + q(t2stest::cgalMesh("blobby")) + " -o " + q(out) + " --elements 8 -q", dir);
+  const auto [r, out] = convert("convert_blobby", t2stest::cgalMesh("blobby"), "--elements 8 -q");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(r.err.empty()) << r.err;
   const json j = readJson(out / "report.json");
@@ -159,11 +163,8 @@ TEST(ConvertCli, RealMeshEndToEnd) {
 // parametric volume, its elements are tagged, and the report says that the
 // STEP/IGES solid is the outer boundary only.
 TEST(ConvertCli, CadSolidWithAVoid) {
-  const auto dir = t2stest::scratchDir("convert_void");
-  const fs::path out = dir / "out";
-  const auto r = runCli("convert " + q(t2stest::sourceDir() + "/models/block_with_void.step") + " -o " + q(out) +
-                            " --voids --elements 8 -q",
-                        dir);
+  const auto [r, out] =
+      convert("convert_void", t2stest::sourceDir() + "/models/block_with_void.step", "--voids --elements 8 -q");
   ASSERT_EQ(r.status, 0) << r.err;
   const json j = readJson(out / "report.json");
   expectSoundRun(out, j);

@@ -22,12 +22,10 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using t2stest::filesIn;
 using t2stest::q;
+using t2stest::readJson;
 using t2stest::runCli;
 
 namespace {
-
-
-json readJson(const fs::path& p) { return json::parse(t2stest::slurp(p)); }
 
 bool haveGmsh() { return std::system("command -v gmsh >/dev/null 2>&1") == 0; }
 
