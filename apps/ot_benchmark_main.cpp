@@ -16,6 +16,18 @@
 // triangulation (sequential) + ~1.5 s clipping. Target was 15 s: not met.
 // Ball domain (level 6), same cloud centred at the origin, 100k: 6 iterations,
 // 16.4 s.
+// Measured 2026-12-01 (commit 82ec024), machine otherwise idle, one run:
+//   181k: 10 iterations, 16 diagrams, triangulation 22.3 s (1.4 s each, of
+//   which CGAL's insertion alone is 1.1–1.2 s), clipping 18.7 s, assembly
+//   2.4 s, solve 6.2 s: 52.8 s, 329 MiB. CGAL's Delaunay_triangulation_3 of
+//   the same points takes 1.07 s here, so the 15 s target cannot be met with
+//   one regular triangulation per diagram and ~10 Newton iterations.
+// --points FILE runs a real input: bunny00's cube problem (181313 sites, the
+// harmonic images in the ball of radius 1/2, lumped tet volumes; masses span
+// 7e-9 .. 2e-5) needs 59 iterations and 500 s: the Voronoi start leaves cells
+// with 1e-12 of their mass (the harmonic map crushes the ears; 10% of the
+// tets have a ball/physical volume ratio below 3e-7), and the line search's
+// first safe step is 2^-33, then doubles once per iteration.
 #include <sys/resource.h>
 
 #include <chrono>
@@ -34,13 +46,35 @@ namespace {
 void usage() {
   std::fprintf(stderr,
                "usage: tet2spline_ot_bench [--n N[,N...]] [--solver cg|ic|cholmod] [--cg-tol T] [--start scaled|zero]\n"
-               "                           [--domain cube|ball] [--seed S]\n"
-               "  default --n 10000,100000,181000\n");
+               "                           [--domain cube|ball] [--seed S] [--points FILE]\n"
+               "  default --n 10000,100000,181000; --points reads a point set in the format of\n"
+               "  'tet2spline transport' (first line N, then x y z mass per line) instead\n");
 }
 double peakRssMiB() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return u.ru_maxrss / 1024.0;  // kB on Linux
+}
+// The transport command's input format, without its diagnostics (a benchmark
+// input is a file someone wrote on purpose).
+bool readPoints(const std::string& path, Eigen::MatrixX3d& y, Eigen::VectorXd& nu) {
+  std::FILE* f = std::fopen(path.c_str(), "r");
+  long n = 0;
+  if (!f || std::fscanf(f, "%ld", &n) != 1 || n <= 0) {
+    std::fprintf(stderr, "tet2spline_ot_bench: %s: cannot read the number of points\n", path.c_str());
+    if (f) std::fclose(f);
+    return false;
+  }
+  y.resize(n, 3);
+  nu.resize(n);
+  for (long i = 0; i < n; ++i)
+    if (std::fscanf(f, "%lf %lf %lf %lf", &y(i, 0), &y(i, 1), &y(i, 2), &nu(i)) != 4) {
+      std::fprintf(stderr, "tet2spline_ot_bench: %s: point %ld of %ld is not 'x y z mass'\n", path.c_str(), i + 1, n);
+      std::fclose(f);
+      return false;
+    }
+  std::fclose(f);
+  return true;
 }
 }  // namespace
 
@@ -49,6 +83,7 @@ int main(int argc, char** argv) {
   OptimalTransportOptions options;
   bool ball = false;
   unsigned seed = 20260101;
+  std::string pointsFile;
   for (int a = 1; a < argc; ++a) {
     const std::string arg = argv[a];
     const char* value = a + 1 < argc ? argv[a + 1] : nullptr;
@@ -77,6 +112,9 @@ int main(int argc, char** argv) {
     } else if (arg == "--domain" && value) {
       ball = std::string(value) == "ball";
       ++a;
+    } else if (arg == "--points" && value) {
+      pointsFile = value;
+      ++a;
     } else if (arg == "--seed" && value) {
       seed = static_cast<unsigned>(std::atoi(value));
       ++a;
@@ -88,18 +126,26 @@ int main(int argc, char** argv) {
   const Domain domain = ball ? Domain::unitBall() : Domain::unitCube();
   const Eigen::Vector3d centre = domain.center();
   int status = 0;
+  if (!pointsFile.empty()) sizes = {-1};
   for (int n : sizes) {
-    std::mt19937_64 rng(seed);
-    std::uniform_real_distribution<double> unit(-1, 1), mass(0.5, 1.5);
-    Eigen::MatrixX3d y(n, 3);
-    for (int i = 0; i < n; ++i) {
-      Eigen::Vector3d p;
-      do p = Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
-      while (p.squaredNorm() > 1);
-      y.row(i) = (centre + 0.45 * p).transpose();
+    Eigen::MatrixX3d y;
+    Eigen::VectorXd nu;
+    if (n < 0) {
+      if (!readPoints(pointsFile, y, nu)) return 2;
+      n = static_cast<int>(y.rows());
+    } else {
+      std::mt19937_64 rng(seed);
+      std::uniform_real_distribution<double> unit(-1, 1), mass(0.5, 1.5);
+      y.resize(n, 3);
+      for (int i = 0; i < n; ++i) {
+        Eigen::Vector3d p;
+        do p = Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+        while (p.squaredNorm() > 1);
+        y.row(i) = (centre + 0.45 * p).transpose();
+      }
+      nu.resize(n);
+      for (int i = 0; i < n; ++i) nu[i] = mass(rng);
     }
-    Eigen::VectorXd nu(n);
-    for (int i = 0; i < n; ++i) nu[i] = mass(rng);
 
     const auto t0 = std::chrono::steady_clock::now();
     const OptimalTransportResult r = solveOptimalTransport(y, nu, domain, options);
