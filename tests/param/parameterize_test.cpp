@@ -3,6 +3,7 @@
 // conservation, invariance, boundary on ∂Ω, zero inverted tets.
 #include <gtest/gtest.h>
 
+#include "param_checks.h"
 #include "test_shapes.h"
 #include "tet2spline/param/error.h"
 #include "tet2spline/param/parameterize.h"
@@ -10,6 +11,7 @@
 #include "tet2spline/param/topology.h"
 
 using namespace tet2spline;
+using t2stest::expectValidParameterization;
 
 namespace {
 
@@ -19,24 +21,6 @@ TetMesh twoRegionSphere() {
   TetrahedralizeOptions o;
   o.maxVolume = 0.001;
   return tetrahedralize(s, o);
-}
-
-void expectValidParameterization(const ParamResult& r, ParamDomain domain) {
-  ASSERT_TRUE(r.status.ok) << r.status.message;
-  EXPECT_EQ(r.param.invertedTets, 0);
-  EXPECT_EQ(countNonPositiveTets(r.U, r.mesh.T), 0);
-  EXPECT_LE(r.ot.maxRelativeMassError, 1e-6);
-  EXPECT_LT(r.param.boundaryMaxDistance, 1e-12);
-  for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) {
-    const Eigen::Vector3d u = r.U.row(r.boundaryVertices(k));
-    if (domain == ParamDomain::Ball) {
-      EXPECT_NEAR(u.norm(), 1.0, 1e-12);
-    } else {
-      EXPECT_TRUE(u.minCoeff() == 0 || u.maxCoeff() == 1) << u.transpose();
-      EXPECT_GE(u.minCoeff(), 0);
-      EXPECT_LE(u.maxCoeff(), 1);
-    }
-  }
 }
 
 }  // namespace
