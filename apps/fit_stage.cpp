@@ -165,7 +165,8 @@ json runFitStage(const TetMesh& mesh, const Eigen::MatrixX3d& U, const FitStageO
   setPath(report, "spline.mesh_volume", meshVolume);
   setPath(report, "fit.points", static_cast<long>(nv));
   setPath(report, "fit.boundary_points", static_cast<long>(boundary.count()));
-  setPath(report, "fit.smoothing", options.smoothing);
+  setPath(report, "fit.smoothing", fit.smoothingWeight);
+  setPath(report, "fit.smoothing_requested", options.smoothing);
   setPath(report, "fit.rms_error_relative", fit.rmsErrorRelative);
   setPath(report, "fit.max_error_relative", fit.maxErrorRelative);
   setPath(report, "fit.boundary_hausdorff_relative", diag > 0 ? bd.hausdorff / diag : 0.0);

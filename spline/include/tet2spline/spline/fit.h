@@ -62,6 +62,11 @@ struct FitOptions {
   /// (ceres::Problem, SPARSE_NORMAL_CHOLESKY). Chosen by measurement (see fit.cpp).
   enum class ValiditySolver { Lbfgs, LevenbergMarquardt } validitySolver = ValiditySolver::Lbfgs;
   int maxLbfgsIterations = 2000;          ///< L-BFGS iterations per validity iteration
+  /// When det J <= 0 remains after the validity stage, refit with λ
+  /// multiplied by smoothingRaiseFactor (λ = 0 becomes 1e-8), at most this
+  /// many times; FitResult::smoothingWeight is the λ of the result.
+  int maxSmoothingRaises = 3;
+  double smoothingRaiseFactor = 10.0;
   /// Linear stage (1): CHOLMOD on the assembled normal equations (fast), or
   /// the same objective as a Ceres problem (SPARSE_NORMAL_CHOLESKY).
   enum class LinearSolver { Cholmod, Ceres } linearSolver = LinearSolver::Cholmod;
@@ -92,6 +97,8 @@ struct FitResult {
   double minDetJ = 0;
   double meanDetJ = 0;
   int refinements = 0;                 ///< doublings done for targetRmsRelative
+  double smoothingWeight = 0;          ///< λ of the result (raised from FitOptions' when det J <= 0 remained)
+  int smoothingRaises = 0;             ///< refits with a raised λ (of the last refinement level)
   int validityIterations = 0;          ///< outer iterations of the validity stage
   int solverIterations = 0;            ///< Ceres iterations, all stages
   FitTimings timings;
