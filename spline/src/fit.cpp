@@ -911,7 +911,8 @@ FitResult fitBSplineVolume(const Eigen::MatrixX3d& U, const Eigen::MatrixX3d& X,
     // Sparse data or a kinked parameterization can leave det J <= 0 that
     // the validity stage cannot remove at a small λ: refit with λ raised
     // (measured at 1e-8 → 1e-7 → 1e-6: part.off 8³ 1713 → 1063 → 0 Gauss
-    // points left, retinal 16³ 34 → 0, fandisk 16³ 2640 → 0 at 1e-6; dense data
+    // points left; at 1e-8 → 1e-7: part 16³ 1870 → 0, fandisk 16³ 2640 → 0,
+    // retinal 16³ 34 → 0; dense data
     // that is valid at 1e-8 keeps its smaller error, e.g. two_material 16³
     // RMS 0.00242 at 1e-8 against 0.00657 at 1e-6).
     FitOptions current = options;
@@ -928,8 +929,16 @@ FitResult fitBSplineVolume(const Eigen::MatrixX3d& U, const Eigen::MatrixX3d& X,
       std::ostringstream os;
       os << res.negativeGaussPoints << " Gauss points with det J <= 0 at smoothing " << current.smoothingWeight
          << "; refitting with " << next;
-      if (!report(-1.0, os.str())) break;
+      if (!report(-1.0, os.str())) {
+        res.status = Status::failure("stopped by the progress callback");
+        break;
+      }
       current.smoothingWeight = next;
+    }
+    if (raises > 0 && !res.status.ok && res.negativeGaussPoints > 0) {
+      std::ostringstream os;
+      os << " (smoothing raised " << raises << " times, to " << current.smoothingWeight << ")";
+      res.status.message += os.str();
     }
     res.smoothingWeight = current.smoothingWeight;
     res.smoothingRaises = raises;
