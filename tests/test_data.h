@@ -15,4 +15,11 @@ inline std::string cliPath() { return T2S_CLI; }
 inline const char* const kGenus0Meshes[] = {"blob-closed", "part",   "spool",   "hand",  "blobby",
                                             "triceratops", "fandisk", "retinal", "homer", "bunny00"};
 
+/// A mesh name as a GoogleTest parameter name (letters, digits, '_' only).
+inline std::string testName(std::string mesh) {
+  for (char& c : mesh)
+    if (c == '-') c = '_';
+  return mesh;
+}
+
 }  // namespace t2stest

@@ -38,9 +38,4 @@ TEST_P(FitRealData, PositiveJacobianAtTheDefaults) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Genus0, FitRealData, ::testing::Values("blob-closed", "part"),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           for (char& c : n)
-                             if (c == '-') c = '_';
-                           return n;
-                         });
+                         [](const auto& info) { return t2stest::testName(info.param); });

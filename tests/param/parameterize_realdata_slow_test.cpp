@@ -55,8 +55,5 @@ INSTANTIATE_TEST_SUITE_P(
                       std::make_tuple("blob-closed", ParamDomain::Ball), std::make_tuple("part", ParamDomain::Ball),
                       std::make_tuple("fandisk", ParamDomain::Ball)),
     [](const auto& info) {
-      std::string n = std::string(std::get<0>(info.param)) + (std::get<1>(info.param) == ParamDomain::Cube ? "_cube" : "_ball");
-      for (char& c : n)
-        if (c == '-') c = '_';
-      return n;
+      return t2stest::testName(std::get<0>(info.param)) + (std::get<1>(info.param) == ParamDomain::Cube ? "_cube" : "_ball");
     });
