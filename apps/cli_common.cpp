@@ -150,6 +150,7 @@ json solidJson(const LoadedSolid& s) {
   j["degenerate_tets"] = r.degenerateTets;
   j["reoriented"] = s.reoriented;
   j["removed_unused_vertices"] = s.removedUnusedVertices;
+  j["caps_flipped"] = s.capsFlipped;
   j["duplicate_vertices"] = r.duplicateVertices;
   j["unused_vertices"] = r.unusedVertices;
   j["nonmanifold_boundary_edges"] = r.nonManifoldBoundaryEdges;

@@ -57,6 +57,11 @@ void addParamReport(json& j, const ParamResult& r) {
   setPath(j, "sphere.angle_distortion_max", r.sphere.angleDistortionMax);
   setPath(j, "sphere.centre_offset", r.sphere.centreOffset);
   setPath(j, "sphere.method", r.sphere.method);
+  setPath(j, "sphere.area_correction_iterations", r.sphere.areaCorrectionIterations);
+  setPath(j, "sphere.area_divergence_conformal", r.sphere.areaDivergenceBefore);
+  setPath(j, "sphere.area_divergence", r.sphere.areaDivergence);
+  setPath(j, "sphere.area_ratio_min", r.sphere.areaRatioMin);
+  setPath(j, "sphere.area_ratio_max", r.sphere.areaRatioMax);
   setPath(j, "ball.inverted_tets_before_untangling", r.ball.invertedTetsBeforeUntangling);
   setPath(j, "ball.inverted_tets", r.ball.invertedTets);
   setPath(j, "ball.harmonic_residual", r.ball.harmonicResidual);

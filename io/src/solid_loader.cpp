@@ -20,10 +20,14 @@ LoadedSolid loadSolid(const std::string& path, const LoadOptions& options) {
     out.reoriented = reorientIfAllInverted(out.mesh);
   } else if (isSurfaceFormat(format)) {
     out.inputKind = "surface";
-    out.mesh = tetrahedralize(readSurface(path), options.meshing, path);
+    TetrahedralizeStats stats;
+    out.mesh = tetrahedralize(readSurface(path), options.meshing, path, &stats);
+    out.capsFlipped = stats.capsFlipped;
   } else if (isCadFormat(format)) {
     out.inputKind = "cad";
-    out.mesh = tetrahedralize(readCadSurface(path, options.cad), options.meshing, path);
+    TetrahedralizeStats stats;
+    out.mesh = tetrahedralize(readCadSurface(path, options.cad), options.meshing, path, &stats);
+    out.capsFlipped = stats.capsFlipped;
   } else {
     throwInputError(path, 0,
                     "unknown file extension (expected .mesh, .msh, .node, .ele, .vtu, .vtk, .off, .obj, .stl, "

@@ -123,6 +123,11 @@ BallMapResult mapToBall(const TetMesh& mesh, const BallMapOptions& options) {
   result.sphere.angleDistortionMax = sphere.angleDistortionMax;
   result.sphere.centreOffset = sphere.centreOffset;
   result.sphere.method = sphere.method;
+  result.sphere.areaCorrectionIterations = sphere.areaCorrectionIterations;
+  result.sphere.areaDivergenceBefore = sphere.areaDivergenceBefore;
+  result.sphere.areaDivergence = sphere.areaDivergence;
+  result.sphere.areaRatioMin = sphere.areaRatioMin;
+  result.sphere.areaRatioMax = sphere.areaRatioMax;
   if (!sphere.status.ok) {
     result.status = sphere.status;
     return result;

@@ -421,6 +421,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
 
     // 2. ball map
     BallMapOptions ballOptions = options.ballMap;
+    if (options.transport) ballOptions.sphere.areaCorrectionIterations = options.sphereAreaCorrectionIterations;
     ballOptions.progress = [&](double f, const std::string& m) {
       return !options.progress || options.progress(f >= 0 ? 0.01 + 0.29 * f : -1, m);
     };

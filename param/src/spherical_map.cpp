@@ -290,6 +290,155 @@ int repairFlips(Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, int maxSweeps) {
   return static_cast<int>(flipped.size());
 }
 
+// Chordal area of each triangle of U.
+Eigen::VectorXd chordAreas(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F) {
+  Eigen::VectorXd a(F.rows());
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    a[f] = 0.5 * (U.row(F(f, 1)) - U.row(F(f, 0))).cross(U.row(F(f, 2)) - U.row(F(f, 0))).norm();
+  return a;
+}
+
+// σ_f = (a_f / Σa) / (A_f / ΣA): mapped over input area share, for every triangle but `skip`.
+Eigen::VectorXd areaShareRatios(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, const Eigen::VectorXd& inputShare,
+                                Eigen::Index skip) {
+  Eigen::VectorXd a = chordAreas(U, F);
+  a[skip] = 0;
+  a /= a.sum();
+  Eigen::VectorXd sigma = a.cwiseQuotient(inputShare);
+  sigma[skip] = 1;
+  return sigma;
+}
+
+// Kullback-Leibler divergence of the mapped area shares from the input ones,
+// Σ A_f log(1/σ_f) / ΣA (≥ 0, 0 only for an equiareal map); +inf if a triangle is flat.
+double areaDivergence(const Eigen::VectorXd& sigma, const Eigen::VectorXd& inputShare) {
+  double d = 0;
+  for (Eigen::Index f = 0; f < sigma.size(); ++f) d -= inputShare[f] * std::log(sigma[f]);
+  return std::isfinite(d) ? d : std::numeric_limits<double>::infinity();
+}
+
+struct AreaCorrection {
+  int iterations = 0;          // steps until the one kept
+  double divergenceAfter = 0;  // of the map kept (over every triangle but the cut one)
+};
+
+// Area correction of a bijective spherical map by reweighted Tutte embeddings.
+// The sphere is cut open at its largest triangle p and projected
+// stereographically from p's centre, so the plane holds every other triangle
+// inside the fixed triangle p. Each step solves L_s z = 0 with p fixed, for the
+// Laplacian with positive weights s_f·max(cot θ, 0.05)/2 (θ the input angles),
+// then multiplies s_f by σ_f^{1/2}: a triangle with too little area gets
+// softer and grows. Positive weights and a convex boundary make every step a
+// planar embedding (Tutte; Floater 2003), so the map stays bijective; the
+// plane's scale (a Möbius transformation of the sphere) is chosen to minimise
+// the area divergence. A planar embedding can still flip a chord triangle on
+// the sphere (one whose circumcircle is nearly a great circle): the result is
+// the step of lowest divergence that is flip-free (exact check, after a short
+// local repair). The iteration stops after five steps without progress.
+AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                            const SphericalMapOptions& options) {
+  AreaCorrection out;
+  const Eigen::Index nv = V.rows(), nf = F.rows();
+  Eigen::VectorXd share = chordAreas(V, F);
+  share /= share.sum();
+  Eigen::Index p = 0;
+  chordAreas(U, F).maxCoeff(&p);
+  out.divergenceAfter = areaDivergence(areaShareRatios(U, F, share, p), share);
+  if (options.areaCorrectionIterations <= 0 || !std::isfinite(out.divergenceAfter)) return out;
+
+  const Eigen::Vector3d centre = (U.row(F(p, 0)) + U.row(F(p, 1)) + U.row(F(p, 2))).transpose().normalized();
+  const Eigen::Matrix3d R = Eigen::Quaterniond::FromTwoVectors(centre, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  auto toPlane = [&](const Eigen::MatrixX3d& S) {
+    const Eigen::MatrixX3d Q = S * R.transpose();
+    Eigen::MatrixXd z(nv, 2);
+    for (Eigen::Index i = 0; i < nv; ++i) {
+      // 1 − q_z without cancellation near the pole: (q_x² + q_y²) / (1 + q_z).
+      const double rho2 = Q(i, 0) * Q(i, 0) + Q(i, 1) * Q(i, 1);
+      const double below = Q(i, 2) > 0 ? rho2 / (1 + Q(i, 2)) : 1 - Q(i, 2);
+      z.row(i) << Q(i, 0) / below, Q(i, 1) / below;
+    }
+    return z;
+  };
+  auto toSphere = [&](const Eigen::MatrixXd& z) {
+    Eigen::MatrixX3d S = fromNorthPlane(z) * R;
+    normalizeRows(S);
+    return S;
+  };
+  // Base weights, per triangle corner (the edge opposite it).
+  Eigen::MatrixX3d base(nf, 3);
+  for (Eigen::Index f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d a = V.row(F(f, (k + 1) % 3)) - V.row(F(f, k)), b = V.row(F(f, (k + 2) % 3)) - V.row(F(f, k));
+      base(f, k) = 0.5 * std::max(a.dot(b) / std::max(a.cross(b).norm(), 1e-300), 0.05);
+    }
+  const std::vector<int> fixed = {F(p, 0), F(p, 1), F(p, 2)};
+  // One reweighted Tutte step from the plane z with weights `soft`: the new
+  // map on the sphere (not checked for flips here), or empty if the solve failed.
+  auto step = [&](const Eigen::MatrixXd& z, const Eigen::VectorXd& soft) -> Eigen::MatrixX3d {
+    Triplets trip;
+    trip.reserve(static_cast<size_t>(nf) * 12);
+    for (Eigen::Index f = 0; f < nf; ++f) {
+      if (f == p) continue;
+      for (int k = 0; k < 3; ++k) {
+        const int i = F(f, (k + 1) % 3), j = F(f, (k + 2) % 3);
+        const double w = soft[f] * base(f, k);
+        trip.emplace_back(i, j, -w);
+        trip.emplace_back(j, i, -w);
+        trip.emplace_back(i, i, w);
+        trip.emplace_back(j, j, w);
+      }
+    }
+    Eigen::SparseMatrix<double> L(nv, nv);
+    L.setFromTriplets(trip.begin(), trip.end());
+    Eigen::MatrixXd corners(3, 2);
+    for (int k = 0; k < 3; ++k) corners.row(k) = z.row(fixed[static_cast<size_t>(k)]);
+    const Eigen::MatrixXd next = dirichletSolve(L, fixed, corners);
+    if (next.size() == 0 || !next.allFinite()) return {};
+    // The plane's scale: golden-section search on log λ.
+    auto divergenceAt = [&](double logScale) {
+      return areaDivergence(areaShareRatios(toSphere(next * std::exp(logScale)), F, share, p), share);
+    };
+    double lo = -4, hi = 4;
+    const double g = 0.5 * (std::sqrt(5.0) - 1);
+    double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo), f1 = divergenceAt(x1), f2 = divergenceAt(x2);
+    for (int k = 0; k < 24; ++k) {
+      if (f1 <= f2) hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = divergenceAt(x1);
+      else lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = divergenceAt(x2);
+    }
+    return Eigen::MatrixX3d(toSphere(next * std::exp(0.5 * (lo + hi))));
+  };
+  Eigen::VectorXd soft = Eigen::VectorXd::Ones(nf);
+  Eigen::MatrixXd z = toPlane(U);
+  Eigen::VectorXd sigma = areaShareRatios(U, F, share, p);
+  Eigen::MatrixX3d best;
+  double lastDivergence = out.divergenceAfter;
+  int sinceProgress = 0;
+  for (int it = 0; it < options.areaCorrectionIterations && sinceProgress < 5; ++it) {
+    soft = soft.cwiseProduct(sigma.cwiseSqrt());
+    soft /= soft.maxCoeff();
+    soft = soft.cwiseMax(1e-30);  // positive weights keep the Tutte guarantee
+    Eigen::MatrixX3d next = step(z, soft);
+    if (next.size() == 0) break;
+    z = toPlane(next);
+    sigma = areaShareRatios(next, F, share, p);
+    const double d = areaDivergence(sigma, share);
+    if (!std::isfinite(d)) break;
+    sinceProgress = d < lastDivergence ? 0 : sinceProgress + 1;
+    lastDivergence = std::min(lastDivergence, d);
+    if (!(d < out.divergenceAfter)) continue;
+    // Candidate: must be flip-free on the sphere, after a short local repair.
+    if (countFlippedSphereTriangles(next, F) > 0 && repairFlips(next, F, 20) > 0) continue;
+    const double repaired = areaDivergence(areaShareRatios(next, F, share, p), share);
+    if (!(repaired < out.divergenceAfter)) continue;
+    best = std::move(next);
+    out.divergenceAfter = repaired;
+    out.iterations = it + 1;
+    if (repaired < options.areaCorrectionTolerance) break;
+  }
+  if (out.iterations > 0) U = std::move(best);
+  return out;
+}
+
 }  // namespace
 
 int countFlippedSphereTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F) {
@@ -461,6 +610,28 @@ SphericalMapResult sphericalMap(const SurfaceMesh& surface, const SphericalMapOp
       result.flippedTriangles = countFlippedSphereTriangles(result.U, F);
     }
   }
+  // Mapped over input area share per triangle, and its divergence (correctAreas).
+  Eigen::VectorXd share = chordAreas(V, F);
+  share /= share.sum();
+  auto shareRatios = [&](const Eigen::MatrixX3d& U) {
+    Eigen::VectorXd a = chordAreas(U, F);
+    return Eigen::VectorXd(a.cwiseQuotient(share) / a.sum());
+  };
+  result.areaDivergenceBefore = areaDivergence(shareRatios(result.U), share);
+  if (result.flippedTriangles == 0 && options.areaCorrectionIterations > 0) {
+    if (stopped(0.8, result.method + " map")) return result;
+    const AreaCorrection area = correctAreas(result.U, V, F, options);
+    result.areaCorrectionIterations = area.iterations;
+    if (area.iterations > 0) {
+      result.method += "+area";
+      result.flippedTriangles = countFlippedSphereTriangles(result.U, F);
+      result.centreOffset = ((result.U.transpose() * masses) / masses.sum()).norm();
+    }
+  }
+  const Eigen::VectorXd sigma = shareRatios(result.U);
+  result.areaDivergence = areaDivergence(sigma, share);
+  result.areaRatioMin = sigma.minCoeff();
+  result.areaRatioMax = sigma.maxCoeff();
   const Eigen::VectorXd K = triangleAngleDistortion(V, result.U, F);
   result.angleDistortionMean = K.mean();
   result.angleDistortionMax = K.maxCoeff();

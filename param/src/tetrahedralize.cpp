@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <new>
 #include <numeric>
 #include <string>
@@ -75,16 +76,75 @@ std::string tetgenFailure(int code) {
 
 }  // namespace
 
-TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& options,
-                       const std::string& sourceName) {
+int flipCaps(SurfaceMesh& surface, double capAngleDegrees) {
+  if (!(capAngleDegrees > 0 && capAngleDegrees < 180)) return 0;
+  const double cosLimit = std::cos(capAngleDegrees * M_PI / 180);  // angle > limit <=> cos < cosLimit
+  const Eigen::MatrixX3d& V = surface.V;
+  Eigen::MatrixX3i& F = surface.F;
+  std::map<std::pair<int, int>, int> edgeFace;  // directed edge -> its triangle
+  auto setEdges = [&](Eigen::Index f, bool insert) {
+    for (int k = 0; k < 3; ++k) {
+      const std::pair<int, int> e{F(f, k), F(f, (k + 1) % 3)};
+      if (insert) edgeFace[e] = static_cast<int>(f);
+      else edgeFace.erase(e);
+    }
+  };
+  for (Eigen::Index f = 0; f < F.rows(); ++f) setEdges(f, true);
+  int flips = 0;
+  // Each flip removes a cap; the bound only guards against flipping back and forth.
+  for (Eigen::Index f = 0; f < F.rows() && flips <= F.rows(); ++f) {
+    for (int k = 0; k < 3 && flips <= F.rows(); ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3), c = F(f, (k + 2) % 3);
+      const Eigen::Vector3d u = V.row(b) - V.row(a), w = V.row(c) - V.row(a);
+      const double lu = u.norm(), lw = w.norm();
+      if (!(lu > 0 && lw > 0) || !(u.dot(w) < cosLimit * lu * lw)) continue;
+      const auto across = edgeFace.find({c, b});
+      if (across == edgeFace.end()) continue;
+      const Eigen::Index g = across->second;
+      int d = -1;
+      for (int j = 0; j < 3; ++j)
+        if (F(g, j) != b && F(g, j) != c) d = F(g, j);
+      if (d < 0 || d == a || edgeFace.count({a, d}) || edgeFace.count({d, a})) continue;
+      const Eigen::Vector3d pa = V.row(a), pb = V.row(b), pc = V.row(c), pd = V.row(d);
+      const Eigen::Vector3d old = (pb - pc).cross(pd - pc);  // the neighbour (c, b, d)
+      if (!((pb - pa).cross(pd - pa).dot(old) > 0 && (pd - pa).cross(pc - pa).dot(old) > 0)) continue;
+      setEdges(f, false), setEdges(g, false);
+      F.row(f) << a, b, d;
+      F.row(g) << a, d, c;
+      setEdges(f, true), setEdges(g, true);
+      ++flips;
+      k = -1;  // look at the new triangle f again
+    }
+  }
+  return flips;
+}
+
+TetMesh tetrahedralize(const SurfaceMesh& input, const TetrahedralizeOptions& options,
+                       const std::string& sourceName, TetrahedralizeStats* stats) {
   // TetGen's refinement need not terminate for radius-edge bounds below 1.
   if (options.radiusEdgeRatio != 0 && !(options.radiusEdgeRatio >= 1))
     throw Error(ErrorKind::Usage, "tetrahedralize: radius-edge ratio " + std::to_string(options.radiusEdgeRatio) +
                                       " must be 0 (no refinement) or at least 1");
   if (!(options.maxVolume >= 0) || !(options.relativeSize >= 0))
     throw Error(ErrorKind::Usage, "tetrahedralize: negative or NaN size");
-  const SurfaceReport report = analyzeSurface(surface, true);
+  SurfaceReport report = analyzeSurface(input, true);
   requireValidSurface(report, sourceName);
+  if (stats) *stats = TetrahedralizeStats{};
+  SurfaceMesh repaired;
+  const SurfaceMesh* chosen = &input;
+  if (options.capAngle > 0 && !options.exactBoundary) {
+    repaired = input;
+    const int flips = flipCaps(repaired, options.capAngle);
+    if (flips > 0) {
+      SurfaceReport check = analyzeSurface(repaired, true);
+      if (check.valid()) {  // otherwise mesh the input as it is
+        report = std::move(check);
+        chosen = &repaired;
+        if (stats) stats->capsFlipped = flips;
+      }
+    }
+  }
+  const SurfaceMesh& surface = *chosen;
   const ShellGeometry shells(surface, report);
   const int nS = shells.size();
   const std::vector<int>& parent = report.shellParent;

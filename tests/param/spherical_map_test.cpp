@@ -26,7 +26,12 @@ void expectBijectiveNormalisedMap(const SurfaceMesh& s, const SphericalMapResult
     for (int k = 0; k < 3; ++k) c += a / 3 * r.U.row(s.F(f, k)).transpose();
     total += a;
   }
-  EXPECT_LT((c / total).norm(), 1e-3);
+  // The Möbius normalisation puts it there; an equiareal map has it there by
+  // itself (the image of the area measure is uniform), an area-corrected one
+  // nearly.
+  const bool areaCorrected = r.method.find("+area") != std::string::npos;
+  EXPECT_LT((c / total).norm(), areaCorrected ? 0.1 : 1e-3);
+  EXPECT_NEAR((c / total).norm(), r.centreOffset, 1e-9);
   EXPECT_GE(r.angleDistortionMean, 1.0);
   EXPECT_TRUE(std::isfinite(r.angleDistortionMax));
 }
@@ -44,6 +49,49 @@ TEST_P(SphericalMapReal, BijectiveAndNormalised) {
             << "\n";
   RecordProperty("method", r.method);
   RecordProperty("distortion_mean", std::to_string(r.angleDistortionMean));
+  std::cout << "  area divergence " << r.areaDivergenceBefore << " -> " << r.areaDivergence << " in "
+            << r.areaCorrectionIterations << " steps, area ratio " << r.areaRatioMin << " .. " << r.areaRatioMax << "\n";
+}
+
+// The area correction on real shells: it makes the map much closer to
+// equiareal than the conformal one wherever that one is far from it, and
+// keeps it bijective (checked above).
+TEST_P(SphericalMapReal, AreaCorrectionEqualisesAreas) {
+  const SurfaceMesh s = readSurface(t2stest::cgalMesh(GetParam()));
+  SphericalMapOptions conformalOnly;
+  conformalOnly.areaCorrectionIterations = 0;
+  const SphericalMapResult c = sphericalMap(s, conformalOnly), r = sphericalMap(s);
+  expectBijectiveNormalisedMap(s, c);
+  EXPECT_EQ(c.areaCorrectionIterations, 0);
+  EXPECT_EQ(c.method.find("+area"), std::string::npos);
+  EXPECT_DOUBLE_EQ(r.areaDivergenceBefore, c.areaDivergence);
+  // Recomputed here from the maps, not taken from the results.
+  auto divergence = [&](const Eigen::MatrixX3d& U) {
+    double total = 0, mapped = 0, d = 0;
+    Eigen::VectorXd a(s.F.rows()), b(s.F.rows());
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f) {
+      auto area = [&](const Eigen::MatrixX3d& X) {
+        return 0.5 * (X.row(s.F(f, 1)) - X.row(s.F(f, 0))).cross(X.row(s.F(f, 2)) - X.row(s.F(f, 0))).norm();
+      };
+      total += a[f] = area(s.V), mapped += b[f] = area(U);
+    }
+    for (Eigen::Index f = 0; f < s.F.rows(); ++f) d += a[f] / total * std::log((a[f] / total) / (b[f] / mapped));
+    return d;
+  };
+  const double before = divergence(c.U), after = divergence(r.U);
+  EXPECT_NEAR(after, r.areaDivergence, 1e-9 * std::max(1.0, after));
+  EXPECT_LE(after, before);
+  // Measured (conformal -> corrected): blobby 0.28 -> 0.018, triceratops 2.1
+  // -> 0.08, fandisk 0.32 -> 0.006, retinal 1.09 -> 0.04, homer 2.4 -> 0.08,
+  // bunny00 1.29 -> 0.16. On the raw CAD-like triangles of part and hand
+  // (long slivers) every step flips chord triangles and none is kept; on
+  // spool 0.58 -> 0.32, blob-closed 0.10 -> 0.04.
+  const std::string name = GetParam();
+  if (name == "blobby" || name == "triceratops" || name == "fandisk" || name == "retinal" || name == "homer" ||
+      name == "bunny00") {
+    EXPECT_LT(after, 0.2 * before) << "conformal divergence " << before;
+    EXPECT_GT(r.areaCorrectionIterations, 0);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Genus0, SphericalMapReal,
@@ -58,7 +106,10 @@ TEST(SphericalMap, TutteRouteIsBijectiveToo) {
   expectBijectiveNormalisedMap(s, r);
   EXPECT_EQ(r.method.substr(0, 5), "tutte");
   // The conformal route distorts angles less.
-  EXPECT_LT(sphericalMap(s).angleDistortionMean, r.angleDistortionMean);
+  SphericalMapOptions conformalOnly;
+  conformalOnly.areaCorrectionIterations = 0;
+  o.areaCorrectionIterations = 0;
+  EXPECT_LT(sphericalMap(s, conformalOnly).angleDistortionMean, sphericalMap(s, o).angleDistortionMean);
 }
 
 TEST(SphericalMap, InvariantUnderRigidMotionAndScaling) {

@@ -287,3 +287,77 @@ TEST(TetrahedralizeReal, OpenSurfacesAreRefused) {
     EXPECT_NE(message.find("open"), std::string::npos) << message;
   }
 }
+
+namespace {
+
+double largestAngleDegrees(const SurfaceMesh& s) {
+  double worst = 0;
+  for (Eigen::Index f = 0; f < s.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d u = s.V.row(s.F(f, (k + 1) % 3)) - s.V.row(s.F(f, k)),
+                            w = s.V.row(s.F(f, (k + 2) % 3)) - s.V.row(s.F(f, k));
+      worst = std::max(worst, std::acos(std::clamp(u.dot(w) / (u.norm() * w.norm()), -1.0, 1.0)) * 180 / M_PI);
+    }
+  return worst;
+}
+
+// Smallest vertex volume (a quarter of the incident tets) over the total.
+double smallestVertexVolumeShare(const TetMesh& m) {
+  Eigen::VectorXd share = Eigen::VectorXd::Zero(m.V.rows());
+  double total = 0;
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t) {
+    const double v = t2stest::tetVolume(m, t);
+    total += v;
+    for (int k = 0; k < 4; ++k) share[m.T(t, k)] += v / 4;
+  }
+  return share.minCoeff() / total;
+}
+
+}  // namespace
+
+// triceratops.off (CGAL's demo data) holds a cap: a triangle with angles
+// 0°, 180°, 0°. Flipping it away leaves the vertices and the enclosed volume
+// as they are, keeps the surface valid, and spares TetGen the cluster of
+// near-zero tets it otherwise makes to conform to the cap.
+TEST(Tetrahedralize, CapsAreFlippedAwayBeforeMeshing) {
+  const SurfaceMesh input = readSurface(t2stest::cgalMesh("triceratops"));
+  ASSERT_GT(largestAngleDegrees(input), 179.9);
+  SurfaceMesh flipped = input;
+  const int flips = flipCaps(flipped, 179);
+  EXPECT_GE(flips, 1);
+  EXPECT_LT(largestAngleDegrees(flipped), 179);
+  EXPECT_EQ(flipped.V, input.V);
+  EXPECT_EQ(flipped.F.rows(), input.F.rows());
+  const SurfaceReport report = analyzeSurface(flipped, true);
+  EXPECT_TRUE(report.valid()) << (report.problems.empty() ? "" : report.problems[0]);
+  EXPECT_NEAR(enclosedVolume(flipped), enclosedVolume(input), 1e-9 * enclosedVolume(input));
+  SurfaceMesh again = flipped;
+  EXPECT_EQ(flipCaps(again, 179), 0);  // nothing left to do
+
+  TetrahedralizeOptions merged;  // as the command line meshes
+  merged.exactBoundary = false;
+  TetrahedralizeOptions keep = merged;
+  keep.capAngle = 0;
+  TetrahedralizeStats stats;
+  const TetMesh withCap = tetrahedralize(input, keep, "triceratops", &stats);
+  EXPECT_EQ(stats.capsFlipped, 0);
+  const TetMesh without = tetrahedralize(input, merged, "triceratops", &stats);
+  EXPECT_EQ(stats.capsFlipped, flips);
+  tetrahedralize(input, {}, "triceratops", &stats);  // exact boundary: the input triangles as they are
+  EXPECT_EQ(stats.capsFlipped, 0);
+  expectValidBall(without, "triceratops");
+  EXPECT_NEAR(t2stest::totalVolume(without), enclosedVolume(input), 1e-6 * enclosedVolume(input));
+  const double smallestWith = smallestVertexVolumeShare(withCap), smallestWithout = smallestVertexVolumeShare(without);
+  std::cout << "smallest vertex volume share: " << smallestWith << " with the cap, " << smallestWithout << " without\n";
+  EXPECT_GT(smallestWithout, 1e-12);
+  EXPECT_GT(smallestWithout, 1e6 * smallestWith);
+}
+
+TEST(Tetrahedralize, SurfacesWithoutCapsAreLeftAlone) {
+  for (const char* name : {"blobby", "fandisk", "bunny00"}) {
+    SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
+    const Eigen::MatrixX3i before = s.F;
+    EXPECT_EQ(flipCaps(s, 179), 0) << name;
+    EXPECT_EQ(s.F, before) << name;
+  }
+}

@@ -24,6 +24,7 @@ struct LoadedSolid {
   std::string inputKind;          ///< "volume", "surface" or "cad"
   bool reoriented = false;        ///< every tet of the input was inverted and was flipped
   int removedUnusedVertices = 0;  ///< vertices of a volume file that no tet uses (dropped)
+  int capsFlipped = 0;            ///< surface/CAD input: caps removed by edge flips before meshing
   double seconds = 0;             ///< reading + tessellation + meshing + analysis
 };
 

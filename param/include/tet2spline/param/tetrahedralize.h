@@ -37,11 +37,36 @@ struct TetrahedralizeOptions {
   /// facets within 0.1° of coplanar (fewer tets on CAD-like surfaces, boundary
   /// points up to ~1e-5 × size off the input surface).
   bool exactBoundary = true;
+  /// Caps (triangles with an angle above this many degrees, nearly a
+  /// segment) are removed by edge flips before meshing (flipCaps); 0 = never.
+  /// TetGen has to conform to a cap: on triceratops.off one cap (angles 0°,
+  /// 180°, 0°) made a cluster of tets with edges 5e-8 of the model size and
+  /// vertex volumes 3e-21 of the total, which the transport cannot resolve.
+  /// Only with merged facets (exactBoundary false): the flip leaves two
+  /// nearly coplanar triangles, which TetGen then merges and remeshes; kept
+  /// as two facets (exactBoundary), they bound a near-flat sliver instead
+  /// (triceratops: its ball map then kept one inverted tet after 388 s of
+  /// untangling), and exactBoundary promises the input triangles anyway.
+  double capAngle = 179;
 };
+
+/// What tetrahedralize() changed in the surface before meshing.
+struct TetrahedralizeStats {
+  int capsFlipped = 0;  ///< edge flips made by flipCaps
+};
+
+/// Removes caps in place by edge flips: for a triangle (a, b, c) with an angle
+/// above `capAngleDegrees` at a, the edge bc is flipped to ad (d the apex of
+/// the triangle across bc) when ad is not yet an edge and both new triangles
+/// keep the orientation of the old pair. The vertices do not move; the
+/// surface moves by at most the cap's height, |bc|·sin(180° − angle)/2.
+/// Returns the number of flips. A surface whose flips would create an edge
+/// twice or a folded pair keeps those caps.
+int flipCaps(SurfaceMesh& surface, double capAngleDegrees = 179);
 
 /// Throws Error(Input/Topology) for an invalid surface (see topology.h) and
 /// Error(Numerical) if TetGen fails; the message names `sourceName`.
 TetMesh tetrahedralize(const SurfaceMesh& surface, const TetrahedralizeOptions& options = {},
-                       const std::string& sourceName = "surface");
+                       const std::string& sourceName = "surface", TetrahedralizeStats* stats = nullptr);
 
 }  // namespace tet2spline
