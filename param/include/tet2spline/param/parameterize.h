@@ -60,9 +60,11 @@ struct ParamOptions {
   /// steps (spherical_map.h, step 4; ballMap.sphere's own value is used
   /// without the transport). Sites from a nearly equiareal boundary start the
   /// transport far closer to its solution: fandisk's cube parameterization
-  /// went from 23 to 13 Newton iterations (72 s -> 37 s in all), blobby from
-  /// 22 s to 10 s, and triceratops converges (38 iterations) where the
-  /// conformal sites failed at iteration 2.
+  /// went from 23 to 13 Newton iterations (72 s -> 40 s in all), blobby from
+  /// 22 s to 10 s, homer from more than 420 s (still in the transport) to
+  /// 163 s (18 iterations); triceratops, with its cap flipped too
+  /// (tetrahedralize.h), converges in 38 iterations where it failed at
+  /// iteration 2.
   int sphereAreaCorrectionIterations = 30;
   OptimalTransportOptions transportOptions;
   /// Geodesic polytope level for the ball domain (power_diagram.h); < 0:

@@ -42,8 +42,10 @@
 ///     0.16, retinal 1.09 -> 0.05, fandisk 0.32 -> 0.008, blobby 0.28 ->
 ///     0.003; on the long CAD slivers of part.off and hand.off every step
 ///     flips and the conformal map stays. In the pipeline (TetGen's boundary)
-///     it cut fandisk's cube parameterization from 72 s to 37 s (transport 23
-///     -> 13 Newton iterations) and made triceratops converge.
+///     it cut fandisk's cube parameterization from 72 s to 40 s (transport 23
+///     -> 13 Newton iterations); with its cap flipped too (tetrahedralize.h),
+///     triceratops converges (38 iterations); with the cap flipped and the
+///     conformal map, its line search still fails at Newton iteration 2.
 /// The cotangent weights of step 1 can be negative, so it is not bijective in
 /// theory; when it leaves flipped triangles, they are first relaxed locally
 /// (spherical Tutte relaxation of their rings, below) and the rest of the map
