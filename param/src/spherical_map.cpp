@@ -208,13 +208,20 @@ Eigen::SparseMatrix<double> beltramiMatrix(const Eigen::MatrixXd& P, const Eigen
   return A;
 }
 
+// Chordal area of each triangle of U.
+Eigen::VectorXd chordAreas(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F) {
+  Eigen::VectorXd a(F.rows());
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    a[f] = 0.5 * (U.row(F(f, 1)) - U.row(F(f, 0))).cross(U.row(F(f, 2)) - U.row(F(f, 0))).norm();
+  return a;
+}
+
 // Third of the input area around each vertex: the masses of the mass centre.
 Eigen::VectorXd vertexMasses(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  const Eigen::VectorXd a = chordAreas(V, F);
   Eigen::VectorXd m = Eigen::VectorXd::Zero(V.rows());
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const double a = 0.5 * (V.row(F(f, 1)) - V.row(F(f, 0))).cross(V.row(F(f, 2)) - V.row(F(f, 0))).norm();
-    for (int k = 0; k < 3; ++k) m[F(f, k)] += a / 3;
-  }
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) m[F(f, k)] += a[f] / 3;
   return m;
 }
 
@@ -290,22 +297,15 @@ int repairFlips(Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, int maxSweeps) {
   return static_cast<int>(flipped.size());
 }
 
-// Chordal area of each triangle of U.
-Eigen::VectorXd chordAreas(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F) {
-  Eigen::VectorXd a(F.rows());
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    a[f] = 0.5 * (U.row(F(f, 1)) - U.row(F(f, 0))).cross(U.row(F(f, 2)) - U.row(F(f, 0))).norm();
-  return a;
-}
-
-// σ_f = (a_f / Σa) / (A_f / ΣA): mapped over input area share, for every triangle but `skip`.
+// σ_f = (a_f / Σa) / (A_f / ΣA): mapped over input area share, for every
+// triangle but `skip` (σ = 1 there; skip < 0: every triangle counts).
 Eigen::VectorXd areaShareRatios(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, const Eigen::VectorXd& inputShare,
-                                Eigen::Index skip) {
+                                Eigen::Index skip = -1) {
   Eigen::VectorXd a = chordAreas(U, F);
-  a[skip] = 0;
+  if (skip >= 0) a[skip] = 0;
   a /= a.sum();
   Eigen::VectorXd sigma = a.cwiseQuotient(inputShare);
-  sigma[skip] = 1;
+  if (skip >= 0) sigma[skip] = 1;
   return sigma;
 }
 
@@ -335,12 +335,11 @@ struct AreaCorrection {
 // the sphere (one whose circumcircle is nearly a great circle): the result is
 // the step of lowest divergence that is flip-free (exact check, after a short
 // local repair). The iteration stops after five steps without progress.
+// `share`: the input area shares (chordAreas(V, F), summing to 1).
 AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                            const SphericalMapOptions& options) {
+                            const Eigen::VectorXd& share, const SphericalMapOptions& options) {
   AreaCorrection out;
   const Eigen::Index nv = V.rows(), nf = F.rows();
-  Eigen::VectorXd share = chordAreas(V, F);
-  share /= share.sum();
   Eigen::Index p = 0;
   chordAreas(U, F).maxCoeff(&p);
   out.divergenceAfter = areaDivergence(areaShareRatios(U, F, share, p), share);
@@ -427,9 +426,12 @@ AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, cons
     lastDivergence = std::min(lastDivergence, d);
     if (!(d < out.divergenceAfter)) continue;
     // Candidate: must be flip-free on the sphere, after a short local repair.
-    if (countFlippedSphereTriangles(next, F) > 0 && repairFlips(next, F, 20) > 0) continue;
-    const double repaired = areaDivergence(areaShareRatios(next, F, share, p), share);
-    if (!(repaired < out.divergenceAfter)) continue;
+    double repaired = d;
+    if (countFlippedSphereTriangles(next, F) > 0) {
+      if (repairFlips(next, F, 20) > 0) continue;
+      repaired = areaDivergence(areaShareRatios(next, F, share, p), share);
+      if (!(repaired < out.divergenceAfter)) continue;
+    }
     best = std::move(next);
     out.divergenceAfter = repaired;
     out.iterations = it + 1;
@@ -613,14 +615,10 @@ SphericalMapResult sphericalMap(const SurfaceMesh& surface, const SphericalMapOp
   // Mapped over input area share per triangle, and its divergence (correctAreas).
   Eigen::VectorXd share = chordAreas(V, F);
   share /= share.sum();
-  auto shareRatios = [&](const Eigen::MatrixX3d& U) {
-    Eigen::VectorXd a = chordAreas(U, F);
-    return Eigen::VectorXd(a.cwiseQuotient(share) / a.sum());
-  };
-  result.areaDivergenceBefore = areaDivergence(shareRatios(result.U), share);
+  result.areaDivergenceBefore = areaDivergence(areaShareRatios(result.U, F, share), share);
   if (result.flippedTriangles == 0 && options.areaCorrectionIterations > 0) {
     if (stopped(0.8, result.method + " map")) return result;
-    const AreaCorrection area = correctAreas(result.U, V, F, options);
+    const AreaCorrection area = correctAreas(result.U, V, F, share, options);
     result.areaCorrectionIterations = area.iterations;
     if (area.iterations > 0) {
       result.method += "+area";
@@ -628,7 +626,7 @@ SphericalMapResult sphericalMap(const SurfaceMesh& surface, const SphericalMapOp
       result.centreOffset = ((result.U.transpose() * masses) / masses.sum()).norm();
     }
   }
-  const Eigen::VectorXd sigma = shareRatios(result.U);
+  const Eigen::VectorXd sigma = areaShareRatios(result.U, F, share);
   result.areaDivergence = areaDivergence(sigma, share);
   result.areaRatioMin = sigma.minCoeff();
   result.areaRatioMax = sigma.maxCoeff();
