@@ -38,7 +38,9 @@
 #include <string>
 #include <vector>
 
+#include "tet2spline/param/error.h"
 #include "tet2spline/param/optimal_transport.h"
+#include "weighted_points.h"
 
 using namespace tet2spline;
 
@@ -54,27 +56,6 @@ double peakRssMiB() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return u.ru_maxrss / 1024.0;  // kB on Linux
-}
-// The transport command's input format, without its diagnostics (a benchmark
-// input is a file someone wrote on purpose).
-bool readPoints(const std::string& path, Eigen::MatrixX3d& y, Eigen::VectorXd& nu) {
-  std::FILE* f = std::fopen(path.c_str(), "r");
-  long n = 0;
-  if (!f || std::fscanf(f, "%ld", &n) != 1 || n <= 0) {
-    std::fprintf(stderr, "tet2spline_ot_bench: %s: cannot read the number of points\n", path.c_str());
-    if (f) std::fclose(f);
-    return false;
-  }
-  y.resize(n, 3);
-  nu.resize(n);
-  for (long i = 0; i < n; ++i)
-    if (std::fscanf(f, "%lf %lf %lf %lf", &y(i, 0), &y(i, 1), &y(i, 2), &nu(i)) != 4) {
-      std::fprintf(stderr, "tet2spline_ot_bench: %s: point %ld of %ld is not 'x y z mass'\n", path.c_str(), i + 1, n);
-      std::fclose(f);
-      return false;
-    }
-  std::fclose(f);
-  return true;
 }
 }  // namespace
 
@@ -131,7 +112,14 @@ int main(int argc, char** argv) {
     Eigen::MatrixX3d y;
     Eigen::VectorXd nu;
     if (n < 0) {
-      if (!readPoints(pointsFile, y, nu)) return 2;
+      try {
+        cli::WeightedPoints p = cli::readWeightedPoints(pointsFile);
+        y = std::move(p.points);
+        nu = std::move(p.masses);
+      } catch (const Error& e) {
+        std::fprintf(stderr, "tet2spline_ot_bench: %s\n", e.what());
+        return 2;
+      }
       n = static_cast<int>(y.rows());
     } else {
       std::mt19937_64 rng(seed);
