@@ -109,7 +109,7 @@ double nowSeconds() {
 }
 }  // namespace
 
-StageLog::StageLog(bool quiet) : quiet_(quiet), tty_(::isatty(STDERR_FILENO) != 0), start_(nowSeconds()) {}
+StageLog::StageLog(bool quiet, bool verbose) : quiet_(quiet), verbose_(verbose && !quiet), tty_(::isatty(STDERR_FILENO) != 0), start_(nowSeconds()) {}
 
 double StageLog::elapsed() const { return nowSeconds() - start_; }
 
@@ -124,6 +124,10 @@ void StageLog::stage(const std::string& name, const std::string& message) {
 
 ProgressCallback StageLog::progress(const std::string& stageName) {
   return [this, stageName](double fraction, const std::string& message) {
+    if (verbose_) {
+      stage(stageName, fraction >= 0 ? std::to_string(static_cast<int>(100 * fraction)) + "% " + message : message);
+      return true;
+    }
     if (quiet_ || !tty_) return true;  // plain logs get one line per stage only
     char head[48];
     std::snprintf(head, sizeof head, "\r[%7.1f s] ", elapsed());

@@ -38,6 +38,7 @@ struct InputOptions {
 /// Global flags (before or after the subcommand).
 struct GlobalOptions {
   bool quiet = false;
+  bool verbose = false;  ///< every progress message as its own log line (diagnostics of long runs)
 };
 GlobalOptions& globals();
 
@@ -53,10 +54,12 @@ void setPath(json& j, const std::string& dottedPath, json value);
 void writeJson(const json& j, const std::string& path);
 
 /// A log line per stage: "[  12.3 s] stage: message" on stderr (none with
-/// --quiet). On a terminal, intermediate progress overwrites one line.
+/// --quiet). On a terminal, intermediate progress overwrites one line; with
+/// --verbose every progress message is a line of its own (sub-stages,
+/// Newton and untangling iterations), on a terminal or not.
 class StageLog {
  public:
-  explicit StageLog(bool quiet);
+  explicit StageLog(bool quiet, bool verbose = false);
   void stage(const std::string& name, const std::string& message);
   /// A progress callback that prints into the current stage's line.
   ProgressCallback progress(const std::string& stageName);
@@ -64,6 +67,7 @@ class StageLog {
 
  private:
   bool quiet_;
+  bool verbose_;
   bool tty_;
   double start_;
   bool openLine_ = false;

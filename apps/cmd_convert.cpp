@@ -53,6 +53,7 @@ Command addConvertCommand(CLI::App& app) {
   o->fit.addTo(cmd);
   cmd->add_option("-o,--output", o->outDir, "output folder (created if needed)")->required();
   cmd->add_flag("-q,--quiet", globals().quiet, "print no log lines");
+  cmd->add_flag("-v,--verbose", globals().verbose, "print every progress message as a log line");
   return {cmd, [o]() {
             o->fit.resolve();
             if (o->param.noTransport && o->param.domain != "ball")
@@ -62,7 +63,7 @@ Command addConvertCommand(CLI::App& app) {
             requireOutputFolder(o->outDir);
             try {
               StagedFiles out(o->outDir);
-              StageLog log(globals().quiet);
+              StageLog log(globals().quiet, globals().verbose);
               LoadedSolid s = loadSolid(o->in.input, o->in.loadOptions(true));
               json report = solidJson(s);
               setPath(report, "timings.load", s.seconds);

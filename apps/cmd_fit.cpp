@@ -25,10 +25,11 @@ Command addFitCommand(CLI::App& app) {
   cmd->add_option("--report", o->report, "report JSON path (default OUTDIR/report.json)");
   o->fit.addTo(cmd);
   cmd->add_flag("-q,--quiet", globals().quiet, "print no log lines");
+  cmd->add_flag("-v,--verbose", globals().verbose, "print every progress message as a log line");
   return {cmd, [o]() {
             o->fit.resolve();
             if (!o->report.empty()) requireWritableOutput(o->report);
-            StageLog log(globals().quiet);
+            StageLog log(globals().quiet, globals().verbose);
             const TetMesh mesh = readTetMesh(o->input);
             const Eigen::MatrixX3d U = cubeParameters(mesh, o->input);
             log.stage("read", o->input + ": " + std::to_string(mesh.numVertices()) + " vertices, " +

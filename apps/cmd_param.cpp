@@ -25,6 +25,7 @@ Command addParamCommand(CLI::App& app) {
   cmd->add_option("--report", o->report, "write the report as JSON here");
   cmd->add_flag("--mapped", o->mapped, "write the mesh at its parameter positions (physical ones as point field X)");
   cmd->add_flag("-q,--quiet", globals().quiet, "print no log lines");
+  cmd->add_flag("-v,--verbose", globals().verbose, "print every progress message as a log line");
   return {cmd, [o]() {
             if (formatFromPath(o->output) != FileFormat::Vtu)
               throw Error(ErrorKind::Usage, o->output + ": the param output must be a .vtu file");
@@ -34,7 +35,7 @@ Command addParamCommand(CLI::App& app) {
             (void)checked;
             requireWritableOutput(o->output);
             if (!o->report.empty()) requireWritableOutput(o->report);
-            StageLog log(globals().quiet);
+            StageLog log(globals().quiet, globals().verbose);
             json report;
             LoadedSolid s = loadSolid(o->in.input, o->in.loadOptions(true));
             report = solidJson(s);

@@ -29,10 +29,11 @@ Command addTransportCommand(CLI::App& app) {
   cmd->add_option("--max-iterations", o->maxIterations, "Newton iterations at most")->check(CLI::Range(1, 10000))->capture_default_str();
   cmd->add_option("--report", o->report, "write the ot.* report as JSON here (it is printed on stdout too)");
   cmd->add_flag("-q,--quiet", globals().quiet, "print no log lines");
+  cmd->add_flag("-v,--verbose", globals().verbose, "print every progress message as a log line");
   return {cmd, [o]() {
             requireWritableOutput(o->output);
             if (!o->report.empty()) requireWritableOutput(o->report);
-            StageLog log(globals().quiet);
+            StageLog log(globals().quiet, globals().verbose);
             const WeightedPoints p = readWeightedPoints(o->input);
             log.stage("load", std::to_string(p.points.rows()) + " points");
             const Domain domain = o->domain == "ball" ? Domain::unitBall() : Domain::unitCube();

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "tet2spline 0.1.0");
   app.add_flag("-q,--quiet", cli::globals().quiet, "print no log lines");
+  app.add_flag("-v,--verbose", cli::globals().verbose, "print every progress message as a log line");
 
   std::vector<cli::Command> commands;
   commands.push_back(cli::addCheckCommand(app));
