@@ -18,15 +18,11 @@ LoadedSolid loadSolid(const std::string& path, const LoadOptions& options) {
     // too); a vertex of no tet has no place in a solid's parameterization.
     out.removedUnusedVertices = removeUnusedVertices(out.mesh);
     out.reoriented = reorientIfAllInverted(out.mesh);
-  } else if (isSurfaceFormat(format)) {
-    out.inputKind = "surface";
+  } else if (isSurfaceFormat(format) || isCadFormat(format)) {
+    const bool cad = isCadFormat(format);
+    out.inputKind = cad ? "cad" : "surface";
     TetrahedralizeStats stats;
-    out.mesh = tetrahedralize(readSurface(path), options.meshing, path, &stats);
-    out.capsFlipped = stats.capsFlipped;
-  } else if (isCadFormat(format)) {
-    out.inputKind = "cad";
-    TetrahedralizeStats stats;
-    out.mesh = tetrahedralize(readCadSurface(path, options.cad), options.meshing, path, &stats);
+    out.mesh = tetrahedralize(cad ? readCadSurface(path, options.cad) : readSurface(path), options.meshing, path, &stats);
     out.capsFlipped = stats.capsFlipped;
   } else {
     throwInputError(path, 0,

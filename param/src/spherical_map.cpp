@@ -342,7 +342,8 @@ AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, cons
   const Eigen::Index nv = V.rows(), nf = F.rows();
   Eigen::Index p = 0;
   chordAreas(U, F).maxCoeff(&p);
-  out.divergenceAfter = areaDivergence(areaShareRatios(U, F, share, p), share);
+  Eigen::VectorXd sigma = areaShareRatios(U, F, share, p);
+  out.divergenceAfter = areaDivergence(sigma, share);
   if (options.areaCorrectionIterations <= 0 || !std::isfinite(out.divergenceAfter)) return out;
 
   const Eigen::Vector3d centre = (U.row(F(p, 0)) + U.row(F(p, 1)) + U.row(F(p, 2))).transpose().normalized();
@@ -408,7 +409,6 @@ AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, cons
   };
   Eigen::VectorXd soft = Eigen::VectorXd::Ones(nf);
   Eigen::MatrixXd z = toPlane(U);
-  Eigen::VectorXd sigma = areaShareRatios(U, F, share, p);
   Eigen::MatrixX3d best;
   double lastDivergence = out.divergenceAfter;
   int sinceProgress = 0;
