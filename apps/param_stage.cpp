@@ -47,11 +47,16 @@ ParamOptions ParamStageOptions::toParamOptions() const {
 }
 
 void addParamReport(json& j, const ParamResult& r) {
+  for (const std::string& w : r.warnings) j["warnings"].push_back(w);
   setPath(j, "param.chords_split", r.chordsSplit);
   setPath(j, "param.vertices", r.mesh.numVertices());
   setPath(j, "param.tets", r.mesh.numTets());
   setPath(j, "param.domain_volume", r.domainVolume);
   setPath(j, "param.domain_representation", r.domainRepresentation);
+  // Σ of the tets' parametric volumes over |Ω|: short of 1 by the chords
+  // inside the sphere and, on the cube, by the triangles cutting across edges.
+  if (r.parametricVolume.size() > 0 && r.domainVolume > 0)
+    setPath(j, "param.covered_volume_fraction", r.parametricVolume.sum() / r.domainVolume);
   setPath(j, "sphere.flipped_triangles", r.sphere.flippedTriangles);
   setPath(j, "sphere.angle_distortion_mean", r.sphere.angleDistortionMean);
   setPath(j, "sphere.angle_distortion_max", r.sphere.angleDistortionMax);
@@ -136,6 +141,7 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   po.progress = log.progress("param");
   ParamResult r = parameterize(mesh, po);
   addParamReport(report, r);
+  for (const std::string& w : r.warnings) log.stage("warning", w);
   std::ostringstream line;
   line << (r.ot.ran ? options.domain : std::string("ball (harmonic)")) << ", " << r.mesh.numVertices() << " vertices";
   if (r.chordsSplit) line << " (" << r.chordsSplit << " chords split)";

@@ -79,6 +79,7 @@ BallMapResult mapToBall(const TetMesh& mesh, const BallMapOptions& options) {
   auto stopped = [&](double fraction, const std::string& what) {
     if (options.progress && !options.progress(fraction, what)) {
       result.status = Status::failure("mapToBall: stopped by the progress callback after " + what);
+      result.stopped = true;
       return true;
     }
     return false;
@@ -190,6 +191,7 @@ BallMapResult mapToBall(const TetMesh& mesh, const BallMapOptions& options) {
     result.ball.untangleIterations = untangled.lbfgsIterations;
     result.U = std::move(untangled.U);
     if (!untangled.status.ok) result.status = untangled.status;
+    result.stopped = result.stopped || untangled.stopped;
   } else {
     result.ball.invertedTetsBeforeUntangling = result.ball.invertedTets = countNonPositiveTets(result.U, mesh.T);
   }

@@ -343,6 +343,12 @@ int countFlippedBoundaryTriangles(const Eigen::MatrixX3d& U, const Eigen::Matrix
   return flipped;
 }
 
+/// Rings of boundary vertices around a flipped triangle that slide in the
+/// first phase of the final untangling. Measured (cube, final untangling
+/// seconds): triceratops 32 (0 rings), 32 (1), 79 (2), 8 (4); fandisk 3 (2),
+/// 3.8 (4); homer 83 (2), 91 (4).
+constexpr int kSlideRings = 4;
+
 }  // namespace
 
 Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure) {
@@ -435,7 +441,20 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     r.timings.sphere = ball.timings.sphere + ball.timings.boundary;
     r.timings.harmonic = ball.timings.harmonic;
     r.timings.untangle = ball.timings.untangle;
-    if (!ball.status.ok) throw Status::failure(ball.status.message);
+    // With transport, the ball map only places the sites: the composition
+    // moves every vertex to its cell's centroid and the final untangling
+    // repairs whatever that inverts (thousands of tets on fandisk), so a few
+    // tets the ball map's untangling could not repair (spool: one, det
+    // −10⁻⁶, no single vertex can fix it) do not make the result invalid;
+    // the final map is checked on its own. Without transport the ball map is
+    // the result, and it must be bijective.
+    const bool onlyInversionsLeft = !ball.stopped && ball.ball.invertedTets > 0 && ball.sphere.flippedTriangles == 0 &&
+                                    ball.boundaryMaxDistance < 1e-12;
+    if (!ball.status.ok && !(options.transport && onlyInversionsLeft)) throw Status::failure(ball.status.message);
+    if (!ball.status.ok)
+      r.warnings.push_back("the harmonic ball map kept " + std::to_string(ball.ball.invertedTets) +
+                           " inverted tets (ball.inverted_tets); the transport's composition and final untangling "
+                           "replaced it, and the parameterization is checked on its own (param.inverted_tets)");
 
     // 3. measure
     t0 = Clock::now();
@@ -499,8 +518,6 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       t0 = Clock::now();
       report(0.9, "composition");
       r.U = composeVertices(y, siteStart, sites, transport.weights, transport.centroids, transport.cellVolumes);
-      std::vector<bool> fixed(static_cast<size_t>(nv), false);
-      for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) fixed[static_cast<size_t>(r.boundaryVertices(k))] = true;
       std::vector<std::uint8_t> locks;
       if (options.domain == ParamDomain::Cube) {
         CubePlacement placed =
@@ -527,6 +544,20 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       untangleOptions.progress = [&](double, const std::string& m) {
         return !options.progress || options.progress(-1, "untangle: " + m);
       };
+      // With the boundary held, the tets on boundary triangles the placement
+      // flipped cannot be repaired, so the boundary vertices within
+      // kSlideRings rings of them slide on ∂Ω; the rest of the boundary stays
+      // where the placement put it, on the cube along its edges. Measured
+      // (cube, final untangling): fandisk 26.5 s -> 3 s, retinal 79 -> 7 s.
+      const Eigen::Vector3d apex =
+          options.domain == ParamDomain::Cube ? Eigen::Vector3d(0.5, 0.5, 0.5) : Eigen::Vector3d::Zero();
+      std::vector<bool> fixed = holdBoundaryAwayFromFlips(r.U, r.boundaryFaces, apex, kSlideRings);
+      if (options.domain == ParamDomain::Ball) {
+        untangleOptions.sphereFaces = r.boundaryFaces;
+      } else {
+        untangleOptions.cubeFaces = r.boundaryFaces;
+        untangleOptions.cubeLocks = locks;
+      }
       UntangleResult untangled = untangle(mesh.V, mesh.T, r.U, fixed, untangleOptions);
       r.param.invertedTetsBeforeUntangling = untangled.invertedBefore;
       const int flippedOnCube = options.domain == ParamDomain::Cube
@@ -545,6 +576,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         }
         untangleOptions.rings = UntangleOptions().rings;  // sliding needs the wider, longer default runs
         untangleOptions.maxLbfgsIterations = UntangleOptions().maxLbfgsIterations;
+        untangleOptions.regionRounds = UntangleOptions().regionRounds;
         untangled = untangle(mesh.V, mesh.T, untangled.U, fixed, untangleOptions);
       }
       r.U = std::move(untangled.U);

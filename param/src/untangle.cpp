@@ -388,8 +388,6 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
 
     Eigen::VectorXd x = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(freeVerts.size()));
     auto detMin = [&]() { return active.empty() ? 1.0 : *std::min_element(det.begin(), det.end()); };
-    double bestDet = -std::numeric_limits<double>::infinity();
-    int lastProgress = 0;
     for (int outer = 0; outer < options.maxOuterIterations; ++outer) {
       // ε from the smallest determinant (the reference code's eq. (7)): large
       // enough that χ stays smooth around the worst tet, halved base every 10.
@@ -414,10 +412,10 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
                                   std::to_string(E) + ", L-BFGS iterations " + std::to_string(result.lbfgsIterations) +
                                   ", free " + std::to_string(freeVerts.size()))) {
         result.status = Status::failure("untangle: stopped by the progress callback");
+        result.stopped = true;
         break;
       }
-      if (dmin > bestDet + 1e-3 * std::abs(bestDet)) bestDet = dmin, lastProgress = outer;
-      if (dmin <= 0 && outer - lastProgress >= options.stallIterations) break;  // this region cannot do it
+      if (dmin <= 0 && outer + 1 >= options.regionRounds) break;  // this region has had its rounds: grow it
       // Floating point says untangled: confirm exactly on the active tets.
       if (dmin > 0) {
         int bad = 0;
@@ -453,6 +451,34 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
                                     std::to_string(result.flippedBoundaryTriangles) +
                                     " boundary triangles flipped (some may have only fixed vertices)");
   return result;
+}
+
+std::vector<bool> holdBoundaryAwayFromFlips(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& faces,
+                                            const Eigen::Vector3d& apex, int rings) {
+  const Eigen::Index nv = U.rows();
+  if (faces.rows() > 0 && (faces.minCoeff() < 0 || faces.maxCoeff() >= nv))
+    throw Error(ErrorKind::Input, "holdBoundaryAwayFromFlips: face vertex index out of range");
+  std::vector<char> near(static_cast<size_t>(nv), 0);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const Eigen::Vector3d a = U.row(faces(f, 0)), b = U.row(faces(f, 1)), c = U.row(faces(f, 2));
+    if (orient3d(apex.data(), a.data(), b.data(), c.data()) <= 0)
+      for (int k = 0; k < 3; ++k) near[static_cast<size_t>(faces(f, k))] = 1;
+  }
+  for (int ring = 0; ring < rings; ++ring) {
+    std::vector<char> next = near;
+    for (Eigen::Index f = 0; f < faces.rows(); ++f)
+      if (near[static_cast<size_t>(faces(f, 0))] || near[static_cast<size_t>(faces(f, 1))] ||
+          near[static_cast<size_t>(faces(f, 2))])
+        for (int k = 0; k < 3; ++k) next[static_cast<size_t>(faces(f, k))] = 1;
+    near.swap(next);
+  }
+  std::vector<bool> held(static_cast<size_t>(nv), false);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const auto v = static_cast<size_t>(faces(f, k));
+      held[v] = !near[v];
+    }
+  return held;
 }
 
 }  // namespace tet2spline

@@ -2,6 +2,7 @@
 // report's keys and what they must say (design.md, issues 3 and 4).
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -84,6 +85,20 @@ TEST(CliParam, BallTransportConservesMassAndKeepsTheBoundaryOnTheSphere) {
     EXPECT_TRUE(j["timings"].contains(key)) << key;
   const tet2spline::TetMesh m = tet2spline::readTetMesh(out.string());
   for (const char* field : {"volume_ratio", "inverted"}) EXPECT_NE(m.cellField(field), nullptr) << field;
+  // The covered fraction is the written map's Σ tet volumes over |Ω|; the
+  // tets fill the ball up to the chords (2% short on this coarse mesh).
+  const auto* U = m.pointField("U");
+  ASSERT_NE(U, nullptr);
+  double covered = 0;
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t) {
+    const Eigen::Vector3d a = U->values.row(m.T(t, 0)), b = U->values.row(m.T(t, 1)), c = U->values.row(m.T(t, 2)),
+                          d = U->values.row(m.T(t, 3));
+    covered += (b - a).cross(c - a).dot(d - a) / 6;
+  }
+  const double fraction = j["param"]["covered_volume_fraction"].get<double>();
+  EXPECT_NEAR(fraction, covered / j["param"]["domain_volume"].get<double>(), 1e-9);
+  EXPECT_GT(fraction, 0.95);
+  EXPECT_LE(fraction, 1.0 + 1e-9);
 }
 
 TEST(CliTransport, EqualMassesOnAGridGiveEqualCellsAndConstantWeights) {

@@ -185,3 +185,55 @@ TEST(UntangleCube, RejectsSphereAndCubeTogetherAndUnlockedFaceVertices) {
     EXPECT_EQ(e.kind(), ErrorKind::Input);
   }
 }
+
+TEST(UntangleCube, BoundaryHeldAwayFromFlippedTrianglesIsEnough) {
+  // The composition's final untangling: the boundary stays where the
+  // placement put it, except around the triangles that came out flipped.
+  CubeCase c = tangledCube(8);
+  const Eigen::Vector3d centre(0.5, 0.5, 0.5);
+  const int flipped = flippedCubeTriangles(c.U, c.faces);
+  ASSERT_GT(flipped, 0);
+  UntangleOptions o;
+  o.cubeFaces = c.faces;
+  o.cubeLocks = c.locks;
+  // Everything on the boundary held: a flipped triangle keeps its tet inverted.
+  std::vector<bool> all(static_cast<size_t>(c.U.rows()), false);
+  for (Eigen::Index f = 0; f < c.faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) all[static_cast<size_t>(c.faces(f, k))] = true;
+  const UntangleResult stuck = untangle(c.mesh.V, c.mesh.T, c.U, all, o);
+  EXPECT_FALSE(stuck.status.ok);
+  EXPECT_GT(stuck.flippedBoundaryTriangles, 0);
+
+  const std::vector<bool> held = holdBoundaryAwayFromFlips(c.U, c.faces, centre, 1);
+  ASSERT_EQ(held.size(), static_cast<size_t>(c.U.rows()));
+  int heldCount = 0, boundaryCount = 0;
+  for (Eigen::Index v = 0; v < c.U.rows(); ++v) {
+    heldCount += held[static_cast<size_t>(v)];
+    boundaryCount += all[static_cast<size_t>(v)];
+    if (c.locks[v] == 0) {
+      EXPECT_FALSE(held[static_cast<size_t>(v)]) << "interior vertex " << v;
+    }
+  }
+  for (Eigen::Index f = 0; f < c.faces.rows(); ++f) {
+    const Eigen::Vector3d a = c.U.row(c.faces(f, 0)), b = c.U.row(c.faces(f, 1)), d = c.U.row(c.faces(f, 2));
+    if (orient3d(centre.data(), a.data(), b.data(), d.data()) <= 0) {
+      for (int k = 0; k < 3; ++k) EXPECT_FALSE(held[static_cast<size_t>(c.faces(f, k))]);
+    }
+  }
+  EXPECT_GT(heldCount, 0);
+  EXPECT_LT(heldCount, boundaryCount);
+  const UntangleResult r = untangle(c.mesh.V, c.mesh.T, c.U, held, o);
+  EXPECT_TRUE(r.status.ok) << r.status.message;
+  EXPECT_EQ(countNonPositiveTets(r.U, c.mesh.T), 0);
+  EXPECT_EQ(flippedCubeTriangles(r.U, c.faces), 0);
+  for (Eigen::Index v = 0; v < r.U.rows(); ++v)
+    if (held[static_cast<size_t>(v)]) {
+      EXPECT_EQ(r.U.row(v), c.U.row(v)) << "held vertex " << v;  // bitwise
+    }
+  // No rings: only the flipped triangles' own vertices are released.
+  const std::vector<bool> tight = holdBoundaryAwayFromFlips(c.U, c.faces, centre, 0);
+  int tightCount = 0;
+  for (bool h : tight) tightCount += h;
+  EXPECT_GT(tightCount, heldCount);
+  EXPECT_THROW(holdBoundaryAwayFromFlips(c.U.topRows(3), c.faces, centre, 1), Error);
+}

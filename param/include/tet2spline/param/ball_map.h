@@ -69,6 +69,7 @@ struct BallMapResult {
     double boundary = 0, sphere = 0, harmonic = 0, untangle = 0, total = 0;  ///< seconds
   } timings;
   Status status;                      ///< failure when a stage left flips/inversions or was stopped
+  bool stopped = false;               ///< the progress callback stopped it (status says where)
 };
 
 /// Throws Error(Topology) unless the boundary is one closed genus-0 shell,

@@ -92,15 +92,21 @@ struct ParamOptions {
   /// composition, but 36-46 inverted tets instead of 0-10; after the measure
   /// relaxation both give 0.1975. Hence off by default.
   bool interfaceSites = false;
-  /// The final untangling. After the composition the inversions are many
-  /// (~8% of the tets of part.off) but shallow, so a one-ring region and
-  /// short L-BFGS runs do it fastest (part.off, ball: 3 rings/100
-  /// iterations 22.7 s, every vertex free 24.5 s, 1 ring/30 iterations 11.3 s,
-  /// with the same volume-ratio percentiles).
+  /// The final untangling, first phase: the boundary held except near the
+  /// triangles the placement flipped (untangle.h, holdBoundaryAwayFromFlips).
+  /// After the composition the inversions are many (~8% of the tets of
+  /// part.off) but shallow, so a one-ring region and short L-BFGS runs do it
+  /// fastest (part.off, ball: 3 rings/100 iterations 22.7 s, every vertex
+  /// free 24.5 s, 1 ring/30 iterations 11.3 s, with the same volume-ratio
+  /// percentiles), and a region that fails is grown after 6 rounds: where
+  /// the held boundary makes it hopeless, the sliding phase that follows
+  /// (the UntangleOptions defaults) does it (final untangling with 16
+  /// rounds, then 6: homer cube 91 -> 61 s, fandisk ball 16 -> 4.6 s).
   UntangleOptions untangle = [] {
     UntangleOptions u;
     u.rings = 1;
     u.maxLbfgsIterations = 30;
+    u.regionRounds = 6;
     return u;
   }();
   /// L-BFGS iterations of the measure relaxation after untangling (untangle.h
@@ -140,6 +146,7 @@ struct ParamResult {
   int chordsSplit = 0;
   double domainVolume = 0;             ///< |Ω| as represented (ball: the polytope)
   std::string domainRepresentation;    ///< how Ω is represented, and its volume error
+  std::vector<std::string> warnings;   ///< what the user should know about a result that is valid
 
   BallMapResult::Sphere sphere;
   BallMapResult::Ball ball;
