@@ -1,10 +1,18 @@
 // tet2spline_bench: per-stage seconds (median of --repeat runs) and peak
-// resident memory of meshing and the ball map (spherical map, harmonic map,
-// untangling) for named models of the test data (libcgal-demo meshes).
-// Boundary chords are split before the map (refine.h), as the pipeline does;
-// --no-split-chords measures the map on TetGen's mesh as it is.
+// resident memory for named models of the test data (libcgal-demo meshes).
 //
-//   tet2spline_bench --data build/testdata bunny00 homer --repeat 3 --json bench.json
+// Default (--stage convert): the whole pipeline, `tet2spline convert` run in
+// a child process per repetition (meshing, ball map, transport, untangling,
+// fit, every export); the stage seconds come from its report.json, the peak
+// memory from the child itself. Arguments after `--` go to convert.
+//
+// --stage ball: meshing and the ball map alone, in this process (spherical
+// map, harmonic map, untangling). Boundary chords are split before the map
+// (refine.h), as the pipeline does; --no-split-chords measures the map on
+// TetGen's mesh as it is.
+//
+//   tet2spline_bench --data build/testdata fandisk homer --repeat 3 --json bench.json
+//   tet2spline_bench --stage ball bunny00 homer
 #include <sys/resource.h>
 
 #include <CLI/CLI.hpp>
@@ -14,8 +22,10 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
+#include "pipeline_benchmark.h"
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/ball_map.h"
 #include "tet2spline/param/error.h"
@@ -23,6 +33,8 @@
 #include "tet2spline/param/tetrahedralize.h"
 
 namespace {
+
+namespace fs = std::filesystem;
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -42,21 +54,94 @@ std::string modelPath(const std::string& data, const std::string& name) {
   throw tet2spline::Error(tet2spline::ErrorKind::Input, name + ": no such model under " + data);
 }
 
+std::string defaultCli(const char* argv0) {
+  std::error_code ec;
+  fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) self = argv0;
+  return (self.parent_path() / "tet2spline").string();
+}
+
+std::string fixed(double v, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << v;
+  return s.str();
+}
+
+/// The whole pipeline, one child `convert` per run; a table on stdout.
+int runPipeline(const std::string& cli, const std::string& data, const std::vector<std::string>& models, int repeat,
+                const std::vector<std::string>& extra, nlohmann::json& report) {
+  using namespace tet2spline;
+  // Columns: the stages of convert's report (timings.*), in pipeline order.
+  const std::vector<std::pair<std::string, std::string>> columns = {
+      {"load", "mesh"},          {"spherical_map", "sphere"}, {"harmonic", "harm"},   {"untangle", "untgl"},
+      {"transport", "OT"},       {"final_untangle", "final"}, {"param", "param"},     {"fit", "fit"},
+      {"fit_checks", "checks"},  {"export", "export"},        {"total", "total"}};
+  std::cout << std::left << std::setw(14) << "model" << std::right << std::setw(8) << "verts" << std::setw(9) << "tets";
+  for (const auto& c : columns) std::cout << std::setw(8) << c.second;
+  std::cout << std::setw(6) << "OTit" << std::setw(9) << "peakMiB" << "  (median seconds of " << repeat << ")"
+            << std::endl;
+  int status = 0;
+  for (const std::string& name : models) {
+    try {
+      const std::string path = modelPath(data, name);
+      std::vector<bench::PipelineRun> runs;
+      for (int k = 0; k < repeat; ++k) {
+        runs.push_back(bench::runConvert(cli, path, extra));
+        if (runs.back().exitStatus != 0) break;  // a failing model fails every time: do not wait for it again
+      }
+      nlohmann::json j = bench::summarize(name, runs);
+      report.push_back(j);
+      std::cout << std::left << std::setw(14) << name << std::right;
+      if (!j.contains("timings")) {
+        std::cout << "  failed (exit " << j.value("exit_status", 0) << "): " << j.value("error", std::string()) << std::endl;
+        status = j.value("exit_status", 5);
+        continue;
+      }
+      std::cout << std::setw(8) << j.value("param_vertices", 0L) << std::setw(9) << j.value("param_tets", 0L);
+      for (const auto& c : columns)
+        std::cout << std::setw(8) << (j["timings"].contains(c.first) ? fixed(j["timings"][c.first].get<double>(), 1) : "-");
+      std::cout << std::setw(6) << j.value("ot_iterations", 0) << std::setw(9) << fixed(j["peak_rss_mib"].get<double>(), 0)
+                << std::endl;
+      if (j["failed_runs"].get<int>() > 0) status = j.value("exit_status", 5);
+    } catch (const Error& e) {
+      std::cerr << "tet2spline_bench: " << e.what() << "\n";
+      report.push_back({{"model", name}, {"error", e.what()}});
+      status = e.exitStatus();
+    }
+  }
+  return status;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"tet2spline_bench: per-stage seconds and peak memory of the ball map"};
+  CLI::App app{"tet2spline_bench: per-stage seconds and peak memory, whole pipeline or ball map"};
   std::string data = "build/testdata";
   std::vector<std::string> models;
   int repeat = 3;
-  std::string jsonPath;
+  std::string jsonPath, stage = "convert", cli = defaultCli(argv[0]);
   bool noSplit = false;
   app.add_option("--data", data, "directory holding meshes/<name>.off (the fetched test data)");
   app.add_option("models", models, "model names (e.g. bunny00 homer) or .off paths")->required();
   app.add_option("--repeat", repeat, "runs per model; medians are reported")->check(CLI::PositiveNumber);
   app.add_option("--json", jsonPath, "also write the figures as JSON");
-  app.add_flag("--no-split-chords", noSplit, "map TetGen's mesh without splitting boundary chords first");
+  app.add_option("--stage", stage, "convert: the whole pipeline (default); ball: meshing and the ball map")
+      ->check(CLI::IsMember({"convert", "ball"}));
+  app.add_option("--cli", cli, "the tet2spline program for --stage convert (default: beside this one)");
+  app.add_flag("--no-split-chords", noSplit, "ball: map TetGen's mesh without splitting boundary chords first");
+  app.allow_extras();
   CLI11_PARSE(app, argc, argv);
+  if (stage == "convert") {
+    std::vector<std::string> extra = app.remaining();
+    if (!extra.empty() && extra.front() == "--") extra.erase(extra.begin());
+    nlohmann::json report = nlohmann::json::array();
+    const int status = runPipeline(cli, data, models, repeat, extra, report);
+    if (!jsonPath.empty()) {
+      std::ofstream out(jsonPath);
+      out << std::setw(2) << nlohmann::json{{"stage", "convert"}, {"repeat", repeat}, {"models", report}} << "\n";
+    }
+    return status;
+  }
 
   using namespace tet2spline;
   nlohmann::json report = nlohmann::json::array();

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "param_checks.h"
+#include "test_data.h"
+#include "tet2spline/io/mesh_io.h"
 #include "test_shapes.h"
 #include "tet2spline/param/error.h"
 #include "tet2spline/param/parameterize.h"
@@ -89,4 +91,34 @@ TEST(Parameterize, WithoutTransportTheCubeIsRefused) {
   o.transport = false;
   o.domain = ParamDomain::Cube;
   EXPECT_THROW(parameterize(twoRegionSphere(), o), Error);
+}
+
+TEST(Parameterize, BallMapInversionsDoNotStopTheTransportButDoStopTheBallMapResult) {
+  // blob-closed's harmonic map inverts a tet; with its untangling off, the
+  // ball map keeps it. The transport only takes the ball map's points as
+  // sites, so the composed and untangled parameterization is valid on its
+  // own and says so in a warning; without transport the ball map is the
+  // result, and an inverted one is a failure.
+  TetrahedralizeOptions meshing;
+  meshing.exactBoundary = false;  // the command line's default
+  const TetMesh mesh = tetrahedralize(readSurface(t2stest::cgalMesh("blob-closed")), meshing, "blob-closed");
+  ParamOptions o;
+  o.domain = ParamDomain::Cube;
+  o.ballMap.untangleMap = false;
+  const ParamResult r = parameterize(mesh, o);
+  ASSERT_GT(r.ball.invertedTets, 0);
+  expectValidParameterization(r, ParamDomain::Cube);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("ball map kept " + std::to_string(r.ball.invertedTets) + " inverted"), std::string::npos)
+      << r.warnings[0];
+  ParamOptions ballOnly;
+  ballOnly.domain = ParamDomain::Ball;
+  ballOnly.transport = false;
+  ballOnly.ballMap.untangleMap = false;
+  const ParamResult b = parameterize(mesh, ballOnly);
+  ASSERT_GT(b.ball.invertedTets, 0);
+  EXPECT_FALSE(b.status.ok);
+  EXPECT_NE(b.status.message.find("inverted"), std::string::npos) << b.status.message;
+  // With the untangling on, nothing to warn about.
+  EXPECT_TRUE(parameterize(mesh, ParamOptions{}).warnings.empty());
 }

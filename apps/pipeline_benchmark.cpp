@@ -1,0 +1,136 @@
+#include "pipeline_benchmark.h"
+
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "tet2spline/param/error.h"
+
+namespace tet2spline::bench {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n == 0 ? 0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
+}
+
+std::string lastLine(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  return last;
+}
+
+}  // namespace
+
+PipelineRun runConvert(const std::string& cli, const std::string& model, const std::vector<std::string>& extraArgs) {
+  static int counter = 0;
+  const fs::path scratch =
+      fs::temp_directory_path() / ("t2s_bench_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+  fs::remove_all(scratch);
+  fs::create_directories(scratch);
+  const fs::path out = scratch / "out", err = scratch / "stderr.txt";
+  std::vector<std::string> args = {cli, "convert", model, "-o", out.string(), "-q"};
+  args.insert(args.end(), extraArgs.begin(), extraArgs.end());
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+
+  PipelineRun run;
+  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t pid = ::fork();
+  if (pid < 0) throw Error(ErrorKind::Usage, std::string("tet2spline_bench: fork: ") + std::strerror(errno));
+  if (pid == 0) {  // child: stderr to a file, stdout discarded
+    const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int n = ::open("/dev/null", O_WRONLY);
+    if (e >= 0) ::dup2(e, 2);
+    if (n >= 0) ::dup2(n, 1);
+    ::execv(cli.c_str(), argv.data());
+    ::_exit(127);
+  }
+  int status = 0;
+  rusage usage{};
+  while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
+  }
+  run.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run.peakRssMiB = static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: kilobytes
+  run.exitStatus = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  run.stderrTail = lastLine(err);
+  if (run.exitStatus == 127 && run.stderrTail.empty()) {
+    fs::remove_all(scratch);
+    throw Error(ErrorKind::Usage, "tet2spline_bench: cannot run " + cli + " (use --cli)");
+  }
+  if (fs::exists(out / "report.json")) {
+    std::ifstream in(out / "report.json");
+    run.report = nlohmann::json::parse(in, nullptr, false);
+    if (run.report.is_discarded()) run.report = nlohmann::json();
+  }
+  fs::remove_all(scratch);
+  return run;
+}
+
+nlohmann::json summarize(const std::string& model, const std::vector<PipelineRun>& runs) {
+  std::map<std::string, std::vector<double>> seconds;
+  std::vector<double> wall;
+  double peak = 0;
+  int failed = 0;
+  const PipelineRun* last = nullptr;
+  for (const PipelineRun& r : runs) {
+    peak = std::max(peak, r.peakRssMiB);
+    if (r.exitStatus != 0) {
+      ++failed;
+      continue;
+    }
+    last = &r;
+    wall.push_back(r.wallSeconds);
+    if (r.report.contains("timings"))
+      for (const auto& [key, value] : r.report["timings"].items())
+        if (value.is_number()) seconds[key].push_back(value.get<double>());
+  }
+  nlohmann::json j = {{"model", model}, {"runs", runs.size()}, {"failed_runs", failed}, {"peak_rss_mib", peak}};
+  if (failed > 0) {
+    for (const PipelineRun& r : runs)
+      if (r.exitStatus != 0) {
+        j["error"] = r.stderrTail;
+        j["exit_status"] = r.exitStatus;
+        break;
+      }
+  }
+  if (!last) return j;
+  j["wall_seconds"] = median(wall);
+  nlohmann::json medians = nlohmann::json::object();
+  for (const auto& [key, values] : seconds) medians[key] = median(values);
+  j["timings"] = medians;
+  const nlohmann::json& rep = last->report;
+  auto copy = [&](const char* section, const char* key, const char* as) {
+    if (rep.contains(section) && rep[section].contains(key)) j[as] = rep[section][key];
+  };
+  if (rep.contains("vertices")) j["vertices"] = rep["vertices"];
+  if (rep.contains("tets")) j["tets"] = rep["tets"];
+  copy("param", "vertices", "param_vertices");
+  copy("param", "tets", "param_tets");
+  copy("ot", "iterations", "ot_iterations");
+  copy("ot", "max_relative_mass_error", "ot_max_relative_mass_error");
+  copy("param", "inverted_tets", "param_inverted_tets");
+  copy("param", "volume_ratio", "param_volume_ratio");
+  copy("fit", "rms_error_relative", "fit_rms_error_relative");
+  copy("jacobian", "negative_gauss_points", "jacobian_negative_gauss_points");
+  copy("jacobian", "min_scaled", "jacobian_min_scaled");
+  return j;
+}
+
+}  // namespace tet2spline::bench
