@@ -129,11 +129,21 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"convert", "ball"}));
   app.add_option("--cli", cli, "the tet2spline program for --stage convert (default: beside this one)");
   app.add_flag("--no-split-chords", noSplit, "ball: map TetGen's mesh without splitting boundary chords first");
-  app.allow_extras();
-  CLI11_PARSE(app, argc, argv);
+  // Everything after `--` goes to convert (CLI11 would take it as model names).
+  int own = argc;
+  std::vector<std::string> extra;
+  for (int k = 1; k < argc; ++k)
+    if (std::string(argv[k]) == "--") {
+      own = k;
+      extra.assign(argv + k + 1, argv + argc);
+      break;
+    }
+  CLI11_PARSE(app, own, argv);
+  if (stage != "convert" && !extra.empty()) {
+    std::cerr << "tet2spline_bench: options after -- are convert's; --stage ball takes none\n";
+    return 2;
+  }
   if (stage == "convert") {
-    std::vector<std::string> extra = app.remaining();
-    if (!extra.empty() && extra.front() == "--") extra.erase(extra.begin());
     nlohmann::json report = nlohmann::json::array();
     const int status = runPipeline(cli, data, models, repeat, extra, report);
     if (!jsonPath.empty()) {

@@ -43,10 +43,10 @@ inline std::filesystem::path scratchDir(const std::string& name) {
   return dir;
 }
 
-/// Runs `tet2spline <args>` (args are passed to the shell as written).
-inline RunResult runCli(const std::string& args, const std::filesystem::path& dir) {
+/// Runs `program <args>` (args are passed to the shell as written).
+inline RunResult runProgram(const std::string& program, const std::string& args, const std::filesystem::path& dir) {
   const auto outFile = dir / "cli.stdout", errFile = dir / "cli.stderr";
-  const std::string cmd = "'" + cliPath() + "' " + args + " >'" + outFile.string() + "' 2>'" + errFile.string() + "' </dev/null";
+  const std::string cmd = "'" + program + "' " + args + " >'" + outFile.string() + "' 2>'" + errFile.string() + "' </dev/null";
   const int raw = std::system(cmd.c_str());
   RunResult r;
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
@@ -55,6 +55,14 @@ inline RunResult runCli(const std::string& args, const std::filesystem::path& di
   std::filesystem::remove(outFile);
   std::filesystem::remove(errFile);
   return r;
+}
+
+/// Runs `tet2spline <args>`.
+inline RunResult runCli(const std::string& args, const std::filesystem::path& dir) { return runProgram(cliPath(), args, dir); }
+
+/// Another program built beside tet2spline (the benchmarks).
+inline std::string sibling(const std::string& name) {
+  return (std::filesystem::path(cliPath()).parent_path() / name).string();
 }
 
 /// `p` in single quotes, for the command lines runCli passes to the shell.

@@ -1,0 +1,49 @@
+// tet2spline_bench (README "Benchmarks"): the whole-pipeline mode runs
+// convert per repetition and reports every stage of its report, the OT
+// iterations and the child's peak memory; a failing model is reported with
+// convert's exit status; options after `--` reach convert.
+#include <gtest/gtest.h>
+
+#include "cli_runner.h"
+
+using t2stest::q;
+
+TEST(Bench, PipelineReportsEveryStageAndConvertOptionsReachConvert) {
+  const auto dir = t2stest::scratchDir("bench_pipeline");
+  const auto json = dir / "bench.json";
+  const auto r = t2stest::runProgram(t2stest::sibling("tet2spline_bench"),
+                                     "--data " + q(t2stest::dataDir()) + " blob-closed --repeat 2 --json " + q(json) +
+                                         " -- --elements 2 --degree 2",
+                                     dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("blob-closed"), std::string::npos) << r.out;
+  const auto j = t2stest::readJson(json);
+  ASSERT_EQ(j["models"].size(), 1u);
+  const auto& m = j["models"][0];
+  EXPECT_EQ(m["runs"], 2);
+  EXPECT_EQ(m["failed_runs"], 0);
+  for (const char* stage : {"load", "spherical_map", "transport", "final_untangle", "fit", "export", "total"}) {
+    ASSERT_TRUE(m["timings"].contains(stage)) << stage;
+    EXPECT_GE(m["timings"][stage].get<double>(), 0) << stage;
+  }
+  EXPECT_LE(m["timings"]["fit"].get<double>(), m["timings"]["total"].get<double>());
+  EXPECT_GT(m["ot_iterations"].get<int>(), 0);
+  EXPECT_GT(m["peak_rss_mib"].get<double>(), 10);
+  EXPECT_EQ(m["param_inverted_tets"], 0);
+  EXPECT_GT(m["wall_seconds"].get<double>(), 0);
+}
+
+TEST(Bench, AFailingModelGivesConvertsStatusAndItsMessage) {
+  const auto dir = t2stest::scratchDir("bench_failing");
+  const auto json = dir / "bench.json";
+  const auto r = t2stest::runProgram(t2stest::sibling("tet2spline_bench"),
+                                     "--data " + q(t2stest::dataDir()) + " elephant --repeat 3 --json " + q(json), dir);
+  EXPECT_EQ(r.status, 4) << r.out << r.err;  // genus > 0: unsupported topology
+  const auto j = t2stest::readJson(json);
+  const auto& m = j["models"][0];
+  EXPECT_EQ(m["runs"], 1);  // not repeated
+  EXPECT_EQ(m["exit_status"], 4);
+  EXPECT_NE(m["error"].get<std::string>().find("genus"), std::string::npos) << m["error"];
+  // Options after -- belong to convert: the ball-map stage refuses them.
+  EXPECT_EQ(t2stest::runProgram(t2stest::sibling("tet2spline_bench"), "--stage ball blob-closed -- --elements 2", dir).status, 2);
+}
