@@ -19,13 +19,13 @@ namespace tet2spline::bench {
 
 namespace fs = std::filesystem;
 
-namespace {
-
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const size_t n = v.size();
   return n == 0 ? 0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
 }
+
+namespace {
 
 std::string lastLine(const fs::path& file) {
   std::ifstream in(file);

@@ -9,6 +9,9 @@
 
 namespace tet2spline::bench {
 
+/// The median of v (0 when empty).
+double median(std::vector<double> v);
+
 struct PipelineRun {
   nlohmann::json report;   ///< the run's report.json (empty when it failed before writing one)
   double wallSeconds = 0;  ///< measured around the child

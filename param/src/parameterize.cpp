@@ -478,6 +478,9 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     r.targetVolume = weighted * (r.domainVolume / totalWeighted);
     r.timings.measure = secondsSince(t0);
 
+    // The centre of Ω, from which both domains are star-shaped: boundary
+    // triangles are flipped when orient3d(apex, a, b, c) <= 0.
+    const Eigen::Vector3d apex = options.domain == ParamDomain::Cube ? Eigen::Vector3d(0.5, 0.5, 0.5) : Eigen::Vector3d::Zero();
     if (!options.transport) {
       r.U = r.ballU;
     } else {
@@ -549,8 +552,6 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // kSlideRings rings of them slide on ∂Ω; the rest of the boundary stays
       // where the placement put it, on the cube along its edges. Measured
       // (cube, final untangling): fandisk 26.5 s -> 3 s, retinal 79 -> 7 s.
-      const Eigen::Vector3d apex =
-          options.domain == ParamDomain::Cube ? Eigen::Vector3d(0.5, 0.5, 0.5) : Eigen::Vector3d::Zero();
       std::vector<bool> fixed = holdBoundaryAwayFromFlips(r.U, r.boundaryFaces, apex, kSlideRings);
       if (options.domain == ParamDomain::Ball) {
         untangleOptions.sphereFaces = r.boundaryFaces;
@@ -560,20 +561,14 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       }
       UntangleResult untangled = untangle(mesh.V, mesh.T, r.U, fixed, untangleOptions);
       r.param.invertedTetsBeforeUntangling = untangled.invertedBefore;
-      const int flippedOnCube = options.domain == ParamDomain::Cube
-                                    ? countFlippedBoundaryTriangles(untangled.U, r.boundaryFaces, Eigen::Vector3d(0.5, 0.5, 0.5))
-                                    : 0;
+      // (the untangler counts the flipped boundary triangles, as cones from apex)
+      const int flippedOnCube = options.domain == ParamDomain::Cube ? untangled.flippedBoundaryTriangles : 0;
       if (untangled.invertedAfter > 0 || flippedOnCube > 0) {
-        // Let the boundary slide on ∂Ω, flips of its triangles kept out: on
-        // the sphere, or on the cube's faces and edges with the coordinates
-        // the placement pinned kept (corners never move).
+        // Let the whole boundary slide on ∂Ω (the faces are set above), flips
+        // of its triangles kept out: on the sphere, or on the cube's faces and
+        // edges with the coordinates the placement pinned kept (corners never
+        // move).
         std::fill(fixed.begin(), fixed.end(), false);
-        if (options.domain == ParamDomain::Ball) {
-          untangleOptions.sphereFaces = r.boundaryFaces;
-        } else {
-          untangleOptions.cubeFaces = r.boundaryFaces;
-          untangleOptions.cubeLocks = locks;
-        }
         untangleOptions.rings = UntangleOptions().rings;  // sliding needs the wider, longer default runs
         untangleOptions.maxLbfgsIterations = UntangleOptions().maxLbfgsIterations;
         untangleOptions.regionRounds = UntangleOptions().regionRounds;
@@ -626,7 +621,6 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
 
     // Figures.
     r.param.invertedTets = countNonPositiveTets(r.U, mesh.T);
-    const Eigen::Vector3d apex = options.domain == ParamDomain::Cube ? Eigen::Vector3d(0.5, 0.5, 0.5) : Eigen::Vector3d::Zero();
     r.param.flippedBoundaryTriangles = countFlippedBoundaryTriangles(r.U, r.boundaryFaces, apex);
     for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) {
       const Eigen::Vector3d u = r.U.row(r.boundaryVertices(k));

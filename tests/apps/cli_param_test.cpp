@@ -151,16 +151,16 @@ TEST(CliParam, VerbosePrintsEveryProgressMessageAsALine) {
   // sub-stage, Newton step and untangling round gets its own line.
   const auto dir = t2stest::scratchDir("cli_param_verbose");
   const std::string in = q(t2stest::cgalMesh("blob-closed"));
-  const auto plain = runCli("param " + in + " -o a.vtu", dir);
+  const auto plain = runCli("param " + in + " -o " + q(dir / "a.vtu"), dir);
   ASSERT_EQ(plain.status, 0) << plain.err;
   EXPECT_EQ(plain.err.find("newton 1:"), std::string::npos) << plain.err;
-  const auto verbose = runCli("param " + in + " -o b.vtu -v", dir);
+  const auto verbose = runCli("param " + in + " -o " + q(dir / "b.vtu") + " -v", dir);
   ASSERT_EQ(verbose.status, 0) << verbose.err;
   for (const char* line : {"param: 1% split", "harmonic map", "newton 1:", "composition", "untangle: eps"})
     EXPECT_NE(verbose.err.find(line), std::string::npos) << line << "\n" << verbose.err;
   EXPECT_GT(verbose.errLines(), plain.errLines() + 5);
   // -q wins over -v.
-  const auto quiet = runCli("param " + in + " -o c.vtu -v -q", dir);
+  const auto quiet = runCli("param " + in + " -o " + q(dir / "c.vtu") + " -v -q", dir);
   ASSERT_EQ(quiet.status, 0);
   EXPECT_TRUE(quiet.err.empty()) << quiet.err;
 }
