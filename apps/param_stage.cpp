@@ -22,6 +22,9 @@ void ParamStageOptions::addTo(CLI::App* cmd) {
       ->check(CLI::Range(1e-12, 0.5))->capture_default_str();
   cmd->add_option("--max-iterations", maxIterations, "Newton iterations of the transport at most")
       ->check(CLI::Range(1, 10000))->capture_default_str();
+  cmd->add_option("--untangler", untangler,
+                  "minimiser of the untangling energy: newton (projected Newton, CHOLMOD) or lbfgs")
+      ->check(CLI::IsMember({"newton", "lbfgs"}))->capture_default_str();
 }
 
 ParamOptions ParamStageOptions::toParamOptions() const {
@@ -43,6 +46,9 @@ ParamOptions ParamStageOptions::toParamOptions() const {
   o.measure.voidDensity = voidDensity;
   o.transportOptions.maxRelativeMassError = tolerance;
   o.transportOptions.maxNewtonIterations = maxIterations;
+  const UntangleMethod method = untangler == "lbfgs" ? UntangleMethod::Lbfgs : UntangleMethod::Newton;
+  o.untangle.method = method;
+  o.ballMap.untangle.method = method;
   return o;
 }
 
@@ -141,6 +147,7 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   po.progress = log.progress("param");
   ParamResult r = parameterize(mesh, po);
   addParamReport(report, r);
+  setPath(report, "param.untangler", options.untangler);
   for (const std::string& w : r.warnings) log.stage("warning", w);
   std::ostringstream line;
   line << (r.ot.ran ? options.domain : std::string("ball (harmonic)")) << ", " << r.mesh.numVertices() << " vertices";

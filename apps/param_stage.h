@@ -16,6 +16,7 @@ struct ParamStageOptions {
   double voidDensity = 0;
   double tolerance = 1e-6;
   int maxIterations = 100;
+  std::string untangler = "lbfgs";
 
   void addTo(CLI::App* cmd);
   /// Throws Error(Usage) for a malformed --density.

@@ -610,6 +610,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
           UntangleOptions relax = untangleOptions;
           relax.sphereFaces.resize(0, 3);
           relax.relax = true;
+          relax.method = UntangleMethod::Lbfgs;  // (its iteration budget is the L-BFGS one)
           relax.theta = options.relaxTheta;
           relax.maxLbfgsIterations = options.relaxIterations;
           UntangleResult relaxed = untangle(mesh.V, mesh.T, r.U, held, relax);

@@ -13,18 +13,16 @@
 #include <deque>
 #include <limits>
 
+#include <Eigen/CholmodSupport>
+#include <Eigen/SparseCore>
+
 #include "spd_solver.h"
 #include "tet2spline/param/topology.h"
+#include "untangle_energy.h"
 
 namespace tet2spline {
 
 namespace {
-
-double chi(double eps, double d) {
-  const double r = std::sqrt(eps * eps + d * d);
-  return d > 0 ? 0.5 * (d + r) : 0.5 * eps * eps / (r - d);
-}
-double chiDerivative(double eps, double d) { return 0.5 + 0.5 * d / std::sqrt(eps * eps + d * d); }
 
 // Minimises f with L-BFGS and Armijo backtracking; returns iterations used.
 template <class FunGrad>
@@ -330,6 +328,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       return base.row(static_cast<Eigen::Index>(k)).transpose();
     };
 
+    const bool holdAtBounds = options.method == UntangleMethod::Newton;
     auto evaluate = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) -> double {
       for (size_t k = 0; k < freeVerts.size(); ++k)
         place(k, unknown(k) + precond[freeVerts[k]] * x.segment<3>(3 * static_cast<Eigen::Index>(k)));
@@ -343,20 +342,12 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               // is 10⁻⁸ wide at |u| = 1.
               Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
               for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
-              const double D = J.determinant();
-              det[a] = D;
-              const double c1 = chi(eps, D), c2 = std::cbrt(c1) * std::cbrt(c1), c3 = chiDerivative(eps, D);  // cbrt: pow took 17%
-              const double f = J.squaredNorm() / c2, h = (1 + D * D) / c1;
-              sum += weight[t] * ((1 - options.theta) * f + options.theta * h);
+              det[a] = J.determinant();
+              Eigen::Matrix3d dJ;
+              sum += weight[t] * detail::untangleEnergy(J, eps, options.theta, g ? &dJ : nullptr);
               if (g) {
-                Eigen::Matrix3d K;  // d det / d J, row by row
-                K.row(0) = J.row(1).cross(J.row(2));
-                K.row(1) = J.row(2).cross(J.row(0));
-                K.row(2) = J.row(0).cross(J.row(1));
-                const Eigen::Matrix3d dJ =
-                    weight[t] * ((1 - options.theta) * (J * (2 / c2) - K * (2 * f * c3 / (3 * c1))) +
-                                 options.theta * K * ((2 * D - h * c3) / c1));
-                tetGrad[a] = dJ * G;  // column k: gradient with respect to vertex k
+                const Eigen::Matrix3d wdJ = weight[t] * dJ;
+                tetGrad[a] = wdJ * G;  // column k: gradient with respect to vertex k
               }
             }
             return sum;
@@ -376,8 +367,15 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               s = (s - n * n.dot(s)) / len;
             } else if (slide[v] == kCube) {  // chain rule through the lock and the clamp
               const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
+              // Beyond a bound the clamp makes E flat in that coordinate; at
+              // a bound that descent would push further out its derivative
+              // is one-sided, so it is held there (active set, as in
+              // L-BFGS-B). Measured: without the second, Newton steps pushed
+              // vertices into the cube's faces and no step decreased E.
               for (int d = 0; d < 3; ++d)
-                if ((locks[v] >> d) & 1 || y[d] < 0 || y[d] > 1) s[d] = 0;
+                if ((locks[v] >> d) & 1 || y[d] < 0 || y[d] > 1 ||
+                    (holdAtBounds && ((y[d] == 0 && s[d] > 0) || (y[d] == 1 && s[d] < 0))))
+                  s[d] = 0;
             }
             g->segment<3>(3 * static_cast<Eigen::Index>(k)) = precond[v] * s;
           }
@@ -386,8 +384,221 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       return E;
     };
 
-    Eigen::VectorXd x = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(freeVerts.size()));
+    // Projected Newton (options.method == Newton): the Hessian of every tet's
+    // energy in J projected onto the PSD cone (untangle_energy.h), mapped to
+    // its vertices (H₁₂ = Bᵀ H₉ B) and to the unknowns through the
+    // preconditioner and the sliding constraints (Gauss–Newton for y ↦ y/|y|),
+    // assembled once per iteration into a fixed block pattern and factorised
+    // with CHOLMOD (the symbolic analysis once per region).
     auto detMin = [&]() { return active.empty() ? 1.0 : *std::min_element(det.begin(), det.end()); };
+    const bool useNewton = options.method == UntangleMethod::Newton;
+    const Eigen::Index nFree = static_cast<Eigen::Index>(freeVerts.size());
+    std::vector<int> nbrOffset, nbr;      // free neighbours of each free vertex (itself included), sorted
+    std::vector<Eigen::Index> colStart;   // first value of block column k
+    std::vector<int> tetBlock;            // per active tet, 16 entries: position of block (a, b) in nbr, or −1
+    std::vector<Eigen::Index> diagBlock;  // value index of entry (0, 0) of block (k, k)
+    Eigen::SparseMatrix<double> hessian;
+    Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> cholmod;
+    if (useNewton) {
+      nbrOffset.assign(static_cast<size_t>(nFree) + 1, 0);
+      std::vector<std::vector<int>> lists(static_cast<size_t>(nFree));
+      tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, nFree, 512), [&](const tbb::blocked_range<Eigen::Index>& r) {
+        for (Eigen::Index k = r.begin(); k != r.end(); ++k) {
+          const int v = freeVerts[static_cast<size_t>(k)];
+          auto& l = lists[static_cast<size_t>(k)];
+          for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e)
+            for (int j = 0; j < 4; ++j)
+              if (inRegion[T(vt.corner[e] / 4, j)] >= 0) l.push_back(inRegion[T(vt.corner[e] / 4, j)]);
+          std::sort(l.begin(), l.end());
+          l.erase(std::unique(l.begin(), l.end()), l.end());
+        }
+      });
+      for (Eigen::Index k = 0; k < nFree; ++k)
+        nbrOffset[static_cast<size_t>(k) + 1] = nbrOffset[static_cast<size_t>(k)] + static_cast<int>(lists[static_cast<size_t>(k)].size());
+      nbr.reserve(static_cast<size_t>(nbrOffset.back()));
+      for (auto& l : lists) nbr.insert(nbr.end(), l.begin(), l.end()), std::vector<int>().swap(l);
+      colStart.resize(static_cast<size_t>(nFree) + 1);
+      for (Eigen::Index k = 0; k <= nFree; ++k) colStart[static_cast<size_t>(k)] = 9 * static_cast<Eigen::Index>(nbrOffset[static_cast<size_t>(k)]);
+      const Eigen::Index n = 3 * nFree;
+      hessian.resize(n, n);
+      hessian.resizeNonZeros(colStart.back());
+      for (Eigen::Index k = 0; k < nFree; ++k) {
+        const int deg = nbrOffset[static_cast<size_t>(k) + 1] - nbrOffset[static_cast<size_t>(k)];
+        for (int c = 0; c < 3; ++c) {
+          const Eigen::Index start = colStart[static_cast<size_t>(k)] + 3 * c * deg;
+          hessian.outerIndexPtr()[3 * k + c] = static_cast<int>(start);
+          for (int p = 0; p < deg; ++p)
+            for (int r = 0; r < 3; ++r)
+              hessian.innerIndexPtr()[start + 3 * p + r] = 3 * nbr[static_cast<size_t>(nbrOffset[static_cast<size_t>(k)] + p)] + r;
+        }
+      }
+      hessian.outerIndexPtr()[n] = static_cast<int>(colStart.back());
+      tetBlock.assign(active.size() * 16, -1);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t a = r.begin(); a != r.end(); ++a)
+          for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) {
+              const int ki = inRegion[T(active[a], i)], kj = inRegion[T(active[a], j)];
+              if (ki < 0 || kj < 0) continue;
+              const int* first = nbr.data() + nbrOffset[static_cast<size_t>(kj)];
+              const int* last = nbr.data() + nbrOffset[static_cast<size_t>(kj) + 1];
+              tetBlock[16 * a + 4 * i + j] = static_cast<int>(std::lower_bound(first, last, ki) - first);
+            }
+      });
+      diagBlock.resize(static_cast<size_t>(nFree));
+      for (Eigen::Index k = 0; k < nFree; ++k) {
+        const int* first = nbr.data() + nbrOffset[static_cast<size_t>(k)];
+        const int* last = nbr.data() + nbrOffset[static_cast<size_t>(k) + 1];
+        diagBlock[static_cast<size_t>(k)] = colStart[static_cast<size_t>(k)] + 3 * (std::lower_bound(first, last, static_cast<int>(k)) - first);
+      }
+      cholmod.analyzePattern(hessian);
+    }
+    // dW_v = M_v dx_v for free vertex k = inRegion[v], at unknowns x.
+    auto chainMatrix = [&](size_t k, const Eigen::VectorXd& x, const Eigen::VectorXd& g) -> Eigen::Matrix3d {
+      const int v = freeVerts[k];
+      const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
+      Eigen::Matrix3d M = precond[v] * Eigen::Matrix3d::Identity();
+      if (slide[v] == kSphere) {
+        const double len = y.norm();
+        const Eigen::Vector3d nrm = y / len;
+        M = precond[v] / len * (Eigen::Matrix3d::Identity() - nrm * nrm.transpose());
+      } else if (slide[v] == kCube) {
+        for (int d = 0; d < 3; ++d)  // locked, or held at a bound (the gradient's active set)
+          if ((locks[v] >> d) & 1 || g[3 * static_cast<Eigen::Index>(k) + d] == 0) M(d, d) = 0;
+      }
+      return M;
+    };
+    constexpr size_t kChunk = 1 << 15;
+    std::vector<Eigen::Matrix3d> blocks;  // per-tet blocks of the chunk being assembled
+    // Assembles the projected Hessian at x (W and eps as left by evaluate(x, &g)).
+    auto assemble = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& g) {
+      std::vector<Eigen::Matrix3d> M(static_cast<size_t>(nFree));
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, static_cast<size_t>(nFree), 1024), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t k = r.begin(); k != r.end(); ++k) M[k] = chainMatrix(k, x, g);
+      });
+      double* values = hessian.valuePtr();
+      std::fill(values, values + hessian.nonZeros(), 0.0);
+      blocks.resize(std::min(kChunk, active.size()) * 16);
+      for (size_t from = 0; from < active.size(); from += kChunk) {
+        const size_t to = std::min(active.size(), from + kChunk);
+        tbb::parallel_for(tbb::blocked_range<size_t>(from, to, 256), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t a = r.begin(); a != r.end(); ++a) {
+            const int t = active[a];
+            const auto& G = grad[static_cast<size_t>(t)];
+            Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+            for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
+            const detail::Matrix9d H9 = weight[t] * detail::untangleHessianProjected(J, eps, options.theta);
+            // J_il = Σ_k W_k[i] G(l, k): block (i, i') of H₁₂ between vertices k, k' is Gᵀ H₉(i,·; i',·) G.
+            Eigen::Matrix<double, 12, 12> H12;
+            for (int i = 0; i < 3; ++i)
+              for (int i2 = 0; i2 < 3; ++i2) {
+                const Eigen::Matrix4d B = G.transpose() * H9.block<3, 3>(3 * i, 3 * i2) * G;
+                for (int k = 0; k < 4; ++k)
+                  for (int k2 = 0; k2 < 4; ++k2) H12(3 * k + i, 3 * k2 + i2) = B(k, k2);
+              }
+            for (int i = 0; i < 4; ++i)
+              for (int j = 0; j < 4; ++j) {
+                const int ki = inRegion[T(t, i)], kj = inRegion[T(t, j)];
+                if (ki < 0 || kj < 0) continue;
+                blocks[16 * (a - from) + 4 * i + j] =
+                    M[static_cast<size_t>(ki)].transpose() * H12.block<3, 3>(3 * i, 3 * j) * M[static_cast<size_t>(kj)];
+              }
+          }
+        });
+        for (size_t a = from; a < to; ++a)  // scatter, sequentially (deterministic, no races)
+          for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) {
+              const int p = tetBlock[16 * a + 4 * i + j];
+              if (p < 0) continue;
+              const int kj = inRegion[T(active[a], j)];
+              const Eigen::Index deg = nbrOffset[static_cast<size_t>(kj) + 1] - nbrOffset[static_cast<size_t>(kj)];
+              const Eigen::Matrix3d& B = blocks[16 * (a - from) + 4 * i + j];
+              for (int c = 0; c < 3; ++c)
+                for (int r = 0; r < 3; ++r) values[colStart[static_cast<size_t>(kj)] + 3 * c * deg + 3 * p + r] += B(r, c);
+            }
+      }
+      // Directions the constraints remove (the sphere's normal, locked or
+      // clamped cube coordinates) get a unit curvature of their own: the
+      // gradient has no component there, so neither has the step.
+      for (size_t k = 0; k < static_cast<size_t>(nFree); ++k) {
+        const int v = freeVerts[k];
+        Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+        if (slide[v] == kSphere) {
+          const Eigen::Vector3d nrm = (unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k))).normalized();
+          C = nrm * nrm.transpose();
+        } else {
+          for (int d = 0; d < 3; ++d) C(d, d) = M[k](d, d) == 0 ? 1 : 0;
+        }
+        for (int c = 0; c < 3; ++c)
+          for (int r = 0; r < 3; ++r) values[diagBlock[k] + 3 * c * (nbrOffset[k + 1] - nbrOffset[k]) + r] += C(r, c);
+      }
+    };
+    // Minimises E_eps from x; returns the Newton iterations used.
+    auto newton = [&](Eigen::VectorXd& x) {
+      const Eigen::Index n = x.size();
+      Eigen::VectorXd g(n), gNew(n), xNew(n);
+      int it = 0;
+      double f = evaluate(x, &g);
+      for (; it < options.maxNewtonIterations; ++it) {
+        if (!options.relax && detMin() > 0) break;  // untangled (the caller confirms exactly)
+        assemble(x, g);
+        auto diag = [&](Eigen::Index i) -> double& {
+          const size_t k = static_cast<size_t>(i / 3);
+          const Eigen::Index c = i % 3;
+          return hessian.valuePtr()[diagBlock[k] + 3 * c * (nbrOffset[k + 1] - nbrOffset[k]) + c];
+        };
+        double maxDiag = 0;
+        for (Eigen::Index i = 0; i < n; ++i) maxDiag = std::max(maxDiag, diag(i));
+        Eigen::VectorXd d;
+        bool solved = false;
+        // A tiny shift first; larger ones if the factorisation still fails.
+        for (double shift = 1e-10 * maxDiag, added = 0; shift < 1e-1 * maxDiag && !solved; shift *= 1e3) {
+          for (Eigen::Index i = 0; i < n; ++i) diag(i) += shift - added;
+          added = shift;
+          cholmod.factorize(hessian);
+          if (cholmod.info() != Eigen::Success) continue;
+          d = -cholmod.solve(g);
+          solved = cholmod.info() == Eigen::Success && d.allFinite();
+        }
+        if (!solved) d = -g;
+        double slope = g.dot(d);
+        if (!(slope < 0)) d = -g, slope = -g.squaredNorm();
+        if (!(slope < 0)) break;
+        double step = 1, fNew = f;
+        bool accepted = false;
+        for (int ls = 0; ls < 40; ++ls, step *= 0.5) {
+          xNew = x + step * d;
+          fNew = evaluate(xNew, &gNew);
+          if (std::isfinite(fNew) && fNew <= f + 1e-4 * step * slope) {
+            accepted = true;
+            break;
+          }
+        }
+        if (!accepted) {
+          evaluate(x, &g);  // restore W and det
+          break;
+        }
+        x.swap(xNew);
+        g.swap(gNew);
+        const double decrease = f - fNew;
+        f = fNew;
+        // Sliding vertices: restart from their constrained position.
+        bool moved = false;
+        for (size_t k = 0; k < freeVerts.size(); ++k)
+          if (slide[freeVerts[k]] != kInterior) {
+            x.segment<3>(3 * static_cast<Eigen::Index>(k)) = (W.row(freeVerts[k]).transpose() - unknown(k)) / precond[freeVerts[k]];
+            moved = true;
+          }
+        if (moved) f = evaluate(x, &g);
+        if (decrease <= 1e-9 * std::abs(f) || -slope <= 1e-12 * std::abs(f)) {
+          ++it;
+          break;
+        }
+      }
+      return it;
+    };
+
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(freeVerts.size()));
     for (int outer = 0; outer < options.maxOuterIterations; ++outer) {
       // ε from the smallest determinant (the reference code's eq. (7)): large
       // enough that χ stays smooth around the worst tet, halved base every 10.
@@ -397,8 +608,11 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       const double proposed = d0 > 0 ? e0 : std::sqrt(e0 * e0 + 0.04 * d0 * d0);
       // Never relax the barrier again, and tighten it while inversions remain.
       eps = outer == 0 ? proposed : std::min(d0 > 0 ? eps : 0.7 * eps, proposed);
-      result.lbfgsIterations += lbfgs([&](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return evaluate(y, &g); }, x,
-                                      options.maxLbfgsIterations, options.lbfgsMemory);
+      if (useNewton)
+        result.newtonIterations += newton(x);
+      else
+        result.lbfgsIterations += lbfgs([&](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return evaluate(y, &g); }, x,
+                                        options.maxLbfgsIterations, options.lbfgsMemory);
       const double E = evaluate(x, nullptr);
       // Sliding vertices: restart from their constrained position.
       for (size_t k = 0; k < freeVerts.size(); ++k)
@@ -410,6 +624,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       if (options.progress &&
           !options.progress(-1, "untangle: eps " + std::to_string(eps) + ", min det " + std::to_string(dmin) + ", E " +
                                   std::to_string(E) + ", L-BFGS iterations " + std::to_string(result.lbfgsIterations) +
+                                  ", Newton iterations " + std::to_string(result.newtonIterations) +
                                   ", free " + std::to_string(freeVerts.size()))) {
         result.status = Status::failure("untangle: stopped by the progress callback");
         result.stopped = true;

@@ -26,7 +26,7 @@ TEST(CliParam, BadOptionsExitWithStatus2BeforeAnyWork) {
        {"param " + in + " -o x.vtu --domain disk", "param " + in + " -o x.vtu --density 2",
         "param " + in + " -o x.vtu --density a=4", "param " + in + " -o x.vtu --density 2=-1",
         "param " + in + " -o x.vtu --no-transport --domain cube", "param " + in + " -o x.mesh",
-        "param " + in + " -o x.vtu --density 7=2" /* no region 7 */}) {
+        "param " + in + " -o x.vtu --density 7=2" /* no region 7 */, "param " + in + " -o x.vtu --untangler bfgs"}) {
     const auto r = runCli(args + " -q", dir);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.errLines(), 1) << r.err;
@@ -64,6 +64,26 @@ TEST(CliParam, HarmonicBallMapWithoutTransport) {
   const tet2spline::TetMesh mm = tet2spline::readTetMesh(mapped.string());
   ASSERT_NE(mm.pointField("X"), nullptr);
   EXPECT_LT((mm.V - Eigen::MatrixX3d(U->values)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(CliParam, NewtonUntanglerGivesAPositiveParameterizationOnBothDomains) {
+  const auto dir = t2stest::scratchDir("cli_param_newton");
+  for (const std::string domain : {"cube", "ball"}) {
+    const auto out = dir / (domain + ".vtu"), rep = dir / (domain + ".json");
+    const auto r = runCli("param " + q(t2stest::cgalMesh("blob-closed")) + " -o " + q(out) + " --domain " + domain +
+                              " --untangler newton -q --report " + q(rep),
+                          dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const json j = t2stest::readJson(rep);
+    EXPECT_EQ(j["param"]["untangler"], "newton");
+    EXPECT_EQ(j["param"]["inverted_tets"], 0);
+    EXPECT_GT(j["param"]["inverted_tets_before_untangling"].get<int>(), 0) << "nothing was untangled";
+    EXPECT_LT(j["param"]["boundary_max_distance"].get<double>(), 1e-12);
+    const tet2spline::TetMesh m = tet2spline::readTetMesh(out.string());
+    const tet2spline::Field* U = m.pointField("U");
+    ASSERT_NE(U, nullptr);
+    EXPECT_EQ(tet2spline::countNonPositiveTets(Eigen::MatrixX3d(U->values), m.T), 0);
+  }
 }
 
 TEST(CliParam, BallTransportConservesMassAndKeepsTheBoundaryOnTheSphere) {

@@ -21,7 +21,12 @@ std::vector<bool> boundaryMask(const TetMesh& m) {
 
 }  // namespace
 
-TEST(Untangle, FixesARandomlyTangledGrid) {
+// Every method must untangle; the tests that say so run with both.
+class UntangleMethods : public ::testing::TestWithParam<UntangleMethod> {};
+INSTANTIATE_TEST_SUITE_P(Methods, UntangleMethods, ::testing::Values(UntangleMethod::Lbfgs, UntangleMethod::Newton),
+                         [](const auto& info) { return info.param == UntangleMethod::Lbfgs ? "Lbfgs" : "Newton"; });
+
+TEST_P(UntangleMethods, FixesARandomlyTangledGrid) {
   const TetMesh m = t2stest::cubeGrid(8);
   const auto fixed = boundaryMask(m);
   Eigen::MatrixX3d U = m.V;
@@ -33,6 +38,7 @@ TEST(Untangle, FixesARandomlyTangledGrid) {
   const int before = countNonPositiveTets(U, m.T);
   ASSERT_GT(before, 50);
   UntangleOptions options;
+  options.method = GetParam();
   options.rings = -1;
   const UntangleResult r = untangle(m.V, m.T, U, fixed, options);
   EXPECT_EQ(r.invertedBefore, before);
@@ -45,14 +51,16 @@ TEST(Untangle, FixesARandomlyTangledGrid) {
     }
 }
 
-TEST(Untangle, LocalRegionFixesAFewInvertedTets) {
+TEST_P(UntangleMethods, LocalRegionFixesAFewInvertedTets) {
   const TetMesh m = t2stest::cubeGrid(10);
   const auto fixed = boundaryMask(m);
   Eigen::MatrixX3d U = m.V;
   // Push three interior vertices through their neighbours.
   for (int v : {333, 555, 777}) U.row(v) += Eigen::RowVector3d(0.3, -0.25, 0.2);
   ASSERT_GT(countNonPositiveTets(U, m.T), 0);
-  const UntangleResult r = untangle(m.V, m.T, U, fixed);
+  UntangleOptions options;
+  options.method = GetParam();
+  const UntangleResult r = untangle(m.V, m.T, U, fixed, options);
   EXPECT_EQ(r.invertedAfter, 0) << r.status.message;
   EXPECT_LT(r.freeVertices, m.V.rows() / 2);
 }
@@ -118,11 +126,16 @@ int flippedCubeTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F) {
 
 }  // namespace
 
-TEST(UntangleCube, BoundarySlidesOnTheCubeAndNothingFlips) {
+class UntangleCubeMethods : public ::testing::TestWithParam<UntangleMethod> {};
+INSTANTIATE_TEST_SUITE_P(Methods, UntangleCubeMethods, ::testing::Values(UntangleMethod::Lbfgs, UntangleMethod::Newton),
+                         [](const auto& info) { return info.param == UntangleMethod::Lbfgs ? "Lbfgs" : "Newton"; });
+
+TEST_P(UntangleCubeMethods, BoundarySlidesOnTheCubeAndNothingFlips) {
   const CubeCase c = tangledCube(6);
   ASSERT_GT(flippedCubeTriangles(c.U, c.faces), 0);
   ASSERT_GT(countNonPositiveTets(c.U, c.mesh.T), 0);
   UntangleOptions o;
+  o.method = GetParam();
   o.cubeFaces = c.faces;
   o.cubeLocks = c.locks;
   const std::vector<bool> none(static_cast<size_t>(c.U.rows()), false);
@@ -236,4 +249,124 @@ TEST(UntangleCube, BoundaryHeldAwayFromFlippedTrianglesIsEnough) {
   for (bool h : tight) tightCount += h;
   EXPECT_GT(tightCount, heldCount);
   EXPECT_THROW(holdBoundaryAwayFromFlips(c.U.topRows(3), c.faces, centre, 1), Error);
+}
+
+// ---- Projected Newton: the energy's derivatives and sliding on the sphere ----
+
+#include "../../param/src/untangle_energy.h"
+
+TEST(UntangleEnergy, GradientAndHessianMatchFiniteDifferences) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int checked = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    Eigen::Matrix3d J;
+    for (int i = 0; i < 9; ++i) J(i / 3, i % 3) = u(rng);
+    if (trial % 2 == 0) J += 1.5 * Eigen::Matrix3d::Identity();  // both signs of det J
+    const double eps = trial % 3 == 0 ? 1e-1 : 0.5, theta = trial % 4 == 0 ? 0.999 : 0.5;
+    Eigen::Matrix3d dJ;
+    detail::Matrix9d H;
+    const double e = detail::untangleEnergy(J, eps, theta, &dJ, &H);
+    ASSERT_TRUE(std::isfinite(e));
+    EXPECT_LT((H - H.transpose()).norm(), 1e-12 * (1 + H.norm()));
+    const double h = 1e-6;
+    for (int i = 0; i < 9; ++i) {
+      Eigen::Matrix3d Jp = J, Jm = J;
+      Jp(i / 3, i % 3) += h, Jm(i / 3, i % 3) -= h;
+      Eigen::Matrix3d gp, gm;
+      const double ep = detail::untangleEnergy(Jp, eps, theta, &gp), em = detail::untangleEnergy(Jm, eps, theta, &gm);
+      const double scale = 1 + dJ.cwiseAbs().maxCoeff();
+      EXPECT_NEAR((ep - em) / (2 * h), dJ(i / 3, i % 3), 1e-5 * scale) << "trial " << trial << " entry " << i;
+      const Eigen::Matrix3d column = (gp - gm) / (2 * h);
+      const double hscale = 1 + H.cwiseAbs().maxCoeff();
+      for (int j = 0; j < 9; ++j) EXPECT_NEAR(column(j / 3, j % 3), H(j, i), 1e-5 * hscale) << "trial " << trial;
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 40);
+}
+
+TEST(UntangleEnergy, ProjectionGivesTheNearestPsdMatrix) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  detail::Matrix9d A;
+  for (int i = 0; i < 81; ++i) A(i / 9, i % 9) = u(rng);
+  A = (A + A.transpose()).eval();
+  Eigen::SelfAdjointEigenSolver<detail::Matrix9d> before(A);
+  ASSERT_LT(before.eigenvalues().minCoeff(), 0);
+  detail::Matrix9d P = A;
+  detail::projectToPsd(P);
+  Eigen::SelfAdjointEigenSolver<detail::Matrix9d> after(P);
+  EXPECT_GT(after.eigenvalues().minCoeff(), -1e-12);
+  // The positive part is kept: A − P is negative semi-definite and P (A − P) = 0.
+  Eigen::SelfAdjointEigenSolver<detail::Matrix9d> diff(A - P);
+  EXPECT_LT(diff.eigenvalues().maxCoeff(), 1e-12);
+  EXPECT_LT((P * (A - P)).norm(), 1e-10);
+  // A positive definite matrix is left bitwise as it is.
+  detail::Matrix9d S = A * A.transpose() + detail::Matrix9d::Identity(), S0 = S;
+  detail::projectToPsd(S);
+  EXPECT_EQ(S, S0);
+}
+
+TEST(UntangleEnergy, AnalyticEigensystemGivesTheProjectedHessian) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int indefinite = 0, inverted = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    Eigen::Matrix3d J;
+    for (int i = 0; i < 9; ++i) J(i / 3, i % 3) = u(rng);
+    if (trial % 2 == 0) J += 1.2 * Eigen::Matrix3d::Identity();
+    if (trial % 7 == 0) J.row(2) = J.row(0) + 1e-9 * J.row(1);  // nearly flat
+    const double eps = trial % 3 == 0 ? 1e-3 : 0.3, theta = trial % 4 == 0 ? 0.999 : 0.5;
+    detail::Matrix9d H;
+    detail::untangleEnergy(J, eps, theta, nullptr, &H);
+    Eigen::SelfAdjointEigenSolver<detail::Matrix9d> eig(H);
+    indefinite += eig.eigenvalues().minCoeff() < 0;
+    inverted += J.determinant() < 0;
+    detail::Matrix9d P = H;
+    detail::projectToPsd(P);
+    const detail::Matrix9d A = detail::untangleHessianProjected(J, eps, theta);
+    EXPECT_LT((A - P).norm(), 1e-9 * (1 + H.norm())) << "trial " << trial << " det " << J.determinant();
+  }
+  EXPECT_GT(indefinite, 50);  // the projection had work to do
+  EXPECT_GT(inverted, 20);
+}
+
+TEST_P(UntangleMethods, BoundarySlidesOnTheSphereAndNothingFlips) {
+  const TetMesh m = t2stest::ballGrid(6);
+  const Eigen::MatrixX3i faces = boundaryFaces(m);
+  std::vector<bool> onSphere(static_cast<size_t>(m.V.rows()), false);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) onSphere[static_cast<size_t>(faces(f, k))] = true;
+  Eigen::MatrixX3d U = m.V;
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);  // edges about 1/3 on the sphere
+  for (Eigen::Index v = 0; v < U.rows(); ++v) {
+    if (v % 3 != 0) continue;
+    for (int d = 0; d < 3; ++d) U(v, d) += jitter(rng);
+    if (onSphere[static_cast<size_t>(v)]) U.row(v).normalize();
+  }
+  const Eigen::Vector3d origin(0, 0, 0);
+  int flippedBefore = 0;
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const Eigen::Vector3d a = U.row(faces(f, 0)), b = U.row(faces(f, 1)), c = U.row(faces(f, 2));
+    flippedBefore += orient3d(origin.data(), a.data(), b.data(), c.data()) <= 0;
+  }
+  ASSERT_GT(flippedBefore, 0);
+  ASSERT_GT(countNonPositiveTets(U, m.T), 0);
+  UntangleOptions o;
+  o.method = GetParam();
+  o.sphereFaces = faces;
+  const UntangleResult r = untangle(m.V, m.T, U, std::vector<bool>(static_cast<size_t>(U.rows()), false), o);
+  EXPECT_TRUE(r.status.ok) << r.status.message;
+  EXPECT_EQ(countNonPositiveTets(r.U, m.T), 0);
+  EXPECT_EQ(r.flippedSphereTriangles, 0);
+  for (Eigen::Index v = 0; v < U.rows(); ++v)
+    if (onSphere[static_cast<size_t>(v)]) {
+      EXPECT_NEAR(r.U.row(v).norm(), 1, 1e-14);
+    }
+  if (GetParam() == UntangleMethod::Newton) {
+    EXPECT_GT(r.newtonIterations, 0);
+    EXPECT_EQ(r.lbfgsIterations, 0);
+  }
 }
