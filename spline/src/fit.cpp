@@ -533,14 +533,19 @@ LinearOutcome solveCeresLinear(const Problem& pb, int threads) {
 /// profile's InnerProductComputer). Unknowns are scaled by sqrt(A_ll) (Jacobi).
 class ValidityObjective final : public ceres::FirstOrderFunction {
  public:
-  struct Penalty {
-    Eigen::Matrix3Xd G;      // basis gradients at the Gauss point, 3 × #local
-    std::vector<long> idx;   // its element's control points
-    double scale;
+  /// The penalised Gauss points of one element. Their basis gradients are
+  /// recomputed at every evaluation (tensorGradient): stored, 3 × 64 of them
+  /// per point at degree 3 took the fit's peak memory from 176 to 564 MiB
+  /// on blobby.
+  struct ElementPenalty {
+    std::array<int, 3> ei;       // element index
+    std::vector<long> idx;       // its control points
+    std::vector<double> scale;   // per Gauss point (ga fastest); 0: not penalised
   };
   ValidityObjective(const Eigen::SparseMatrix<double>& Afull, const Eigen::MatrixX3d& rhs, std::vector<double>& Pflat,
-                    std::vector<long> freeCtrl, std::vector<Penalty> penalties, double tau, int threads)
-      : A_(Afull), b_(rhs), P_(Pflat), free_(std::move(freeCtrl)), pen_(std::move(penalties)), tau_(tau),
+                    std::vector<long> freeCtrl, std::vector<ElementPenalty> penalties, const Layout& L,
+                    const std::array<DirectionTable, 3>& T, double tau, int threads)
+      : A_(Afull), b_(rhs), P_(Pflat), free_(std::move(freeCtrl)), pen_(std::move(penalties)), L_(L), T_(T), tau_(tau),
         threads_(std::max(1, threads)) {
     // Jacobi scaling, floored: control points that the data hardly reach
     // (cut-off cube corners) would otherwise take the longest steps.
@@ -573,13 +578,11 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
     const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> P(P_.data(), nc, 3);
     std::vector<double> part(static_cast<size_t>(threads_), std::numeric_limits<double>::infinity());
     parallelChunks(threads_, static_cast<long>(pen_.size()), [&](long pb, long pe, int t) {
-      for (long k = pb; k < pe; ++k) {
-        const Penalty& q = pen_[static_cast<size_t>(k)];
-        Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-        for (size_t l = 0; l < q.idx.size(); ++l)
-          J += P.row(q.idx[l]).transpose() * q.G.col(static_cast<Eigen::Index>(l)).transpose();
-        part[static_cast<size_t>(t)] = std::min(part[static_cast<size_t>(t)], J.determinant());
-      }
+      Eigen::Matrix3Xd G;
+      for (long k = pb; k < pe; ++k)
+        forEachPoint(pen_[static_cast<size_t>(k)], P, G, [&](const Eigen::Matrix3d& J, double) {
+          part[static_cast<size_t>(t)] = std::min(part[static_cast<size_t>(t)], J.determinant());
+        });
     });
     return *std::min_element(part.begin(), part.end());
   }
@@ -596,22 +599,22 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
     parallelChunks(threads_, static_cast<long>(pen_.size()), [&](long pb, long pe, int t) {
       Eigen::MatrixX3d& g = partGrad[static_cast<size_t>(t)];
       if (gradient) g = Eigen::MatrixX3d::Zero(nc, 3);
+      Eigen::Matrix3Xd G;
       for (long k = pb; k < pe; ++k) {
-        const Penalty& q = pen_[static_cast<size_t>(k)];
-        Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-        for (size_t l = 0; l < q.idx.size(); ++l)
-          J += P.row(q.idx[l]).transpose() * q.G.col(static_cast<Eigen::Index>(l)).transpose();
-        const double d = J.determinant();
-        if (d >= tau_) continue;
-        const double r = q.scale * (tau_ - d);
-        partCost[static_cast<size_t>(t)] += 0.5 * r * r;
-        if (!gradient) continue;
-        const Eigen::Vector3d cu = J.col(1).cross(J.col(2)), cv = J.col(2).cross(J.col(0)), cw = J.col(0).cross(J.col(1));
-        for (size_t l = 0; l < q.idx.size(); ++l) {
-          const Eigen::Index li = static_cast<Eigen::Index>(l);
-          const Eigen::Vector3d dd = q.G(0, li) * cu + q.G(1, li) * cv + q.G(2, li) * cw;  // ∂ det J / ∂P_l
-          g.row(q.idx[l]) -= (r * q.scale) * dd.transpose();
-        }
+        const ElementPenalty& q = pen_[static_cast<size_t>(k)];
+        forEachPoint(q, P, G, [&](const Eigen::Matrix3d& J, double scale) {
+          const double d = J.determinant();
+          if (d >= tau_) return;
+          const double r = scale * (tau_ - d);
+          partCost[static_cast<size_t>(t)] += 0.5 * r * r;
+          if (!gradient) return;
+          const Eigen::Vector3d cu = J.col(1).cross(J.col(2)), cv = J.col(2).cross(J.col(0)), cw = J.col(0).cross(J.col(1));
+          for (size_t l = 0; l < q.idx.size(); ++l) {
+            const Eigen::Index li = static_cast<Eigen::Index>(l);
+            const Eigen::Vector3d dd = G(0, li) * cu + G(1, li) * cv + G(2, li) * cw;  // ∂ det J / ∂P_l
+            g.row(q.idx[l]) -= (r * scale) * dd.transpose();
+          }
+        });
       }
     });
     double pen = 0;
@@ -631,8 +634,28 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
   const Eigen::SparseMatrix<double>& A_;
   const Eigen::MatrixX3d& b_;
   std::vector<double>& P_;
+  /// Calls f(J, scale) at each penalised Gauss point of q, with G holding
+  /// that point's basis gradients.
+  template <class F>
+  void forEachPoint(const ElementPenalty& q, const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& P,
+                    Eigen::Matrix3Xd& G, F&& f) const {
+    Eigen::Matrix<double, Eigen::Dynamic, 3> Pe(static_cast<Eigen::Index>(q.idx.size()), 3);
+    for (size_t l = 0; l < q.idx.size(); ++l) Pe.row(static_cast<Eigen::Index>(l)) = P.row(q.idx[l]);
+    size_t g = 0;
+    for (int gc = 0; gc < T_[2].ng; ++gc)
+      for (int gb = 0; gb < T_[1].ng; ++gb)
+        for (int ga = 0; ga < T_[0].ng; ++ga, ++g) {
+          if (!(q.scale[g] > 0)) continue;
+          tensorGradient(L_, T_, q.ei, ga, gb, gc, G);
+          const Eigen::Matrix3d J = Pe.transpose() * G.transpose();
+          f(J, q.scale[g]);
+        }
+  }
+
   std::vector<long> free_;
-  std::vector<Penalty> pen_;
+  std::vector<ElementPenalty> pen_;
+  const Layout& L_;
+  const std::array<DirectionTable, 3>& T_;
   Eigen::VectorXd s_;
   double tau_;
   int threads_;
@@ -702,7 +725,9 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
     // one does: measured on part.off (16³), points left out at μ = 10⁴ fell
     // from 71 to 3530 below zero in one solve, the stage failed after 8 μ
     // rounds (50 s) and λ had to be raised; with all of them in, the first
-    // round ends valid (see the margin below).
+    // round ends valid (see the margin below). Leaving out points above
+    // 20 τ or 8 τ was cheaper on fandisk (11 s -> 8.8 or 3.5 s) but part
+    // then took 81 or 56 s and ended with twice the RMS error.
     auto touchesFree = [&](const std::vector<long>& ctrl) {
       return std::any_of(ctrl.begin(), ctrl.end(), [&](long c) { return freeCtrl.count(c) > 0; });
     };
@@ -714,20 +739,23 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
         for (int gb = 0; gb < T[1].ng; ++gb)
           for (int ga = 0; ga < T[0].ng; ++ga, ++g) {
             const size_t at = static_cast<size_t>(el * gj.ngTot + g);
-            if (!lbfgs && gj.detJ[at] > 4.0 * tau) continue;
+            if (gj.detJ[at] > 4.0 * tau) continue;
             tensorGradient(L, T, ei, ga, gb, gc, G);
             add(G, std::sqrt(mu * gj.omega[at]) * diag / Jbar);
           }
     };
     if (lbfgs) {
-      std::vector<ValidityObjective::Penalty> pens;
+      std::vector<ValidityObjective::ElementPenalty> pens;
       for (long el = 0; el < L.numElements(); ++el) {
         L.localControls(el, idx);
         if (!touchesFree(idx)) continue;
-        forEachPenalty(el, [&](const Eigen::Matrix3Xd& Gp, double scale) { pens.push_back({Gp, idx, scale}); });
+        ValidityObjective::ElementPenalty ep{L.elementIndex(el), idx, std::vector<double>(static_cast<size_t>(gj.ngTot))};
+        for (int g = 0; g < gj.ngTot; ++g)
+          ep.scale[static_cast<size_t>(g)] = std::sqrt(mu * gj.omega[static_cast<size_t>(el * gj.ngTot + g)]) * diag / Jbar;
+        pens.push_back(std::move(ep));
       }
       auto* f = new ValidityObjective(Afull, rhs, Pflat, std::vector<long>(freeCtrl.begin(), freeCtrl.end()),
-                                      std::move(pens), tau, opt.threads);
+                                      std::move(pens), L, T, tau, opt.threads);
       std::vector<double> x(static_cast<size_t>(f->NumParameters()));
       f->gather(x.data());
       ceres::GradientProblem problem(f);
