@@ -174,7 +174,7 @@ BallMapResult mapToBall(const TetMesh& mesh, const BallMapOptions& options) {
       untangled.invertedBefore = untangled.invertedAfter = countNonPositiveTets(result.U, mesh.T);
     }
     result.ball.invertedTetsBeforeUntangling = untangled.invertedBefore;
-    result.ball.untangleIterations = untangled.lbfgsIterations;
+    result.ball.untangleIterations = untangled.lbfgsIterations + untangled.newtonIterations;
     if (untangled.invertedAfter > 0) {
       // Some inversions need the boundary to move (e.g. a tet with four
       // boundary vertices inverted by the spherical map): let the boundary
@@ -188,7 +188,7 @@ BallMapResult mapToBall(const TetMesh& mesh, const BallMapOptions& options) {
       result.sphere.flippedTriangles = untangled.flippedSphereTriangles;
     }
     result.ball.invertedTets = untangled.invertedAfter;
-    result.ball.untangleIterations = untangled.lbfgsIterations;
+    result.ball.untangleIterations = untangled.lbfgsIterations + untangled.newtonIterations;
     result.U = std::move(untangled.U);
     if (!untangled.status.ok) result.status = untangled.status;
     result.stopped = result.stopped || untangled.stopped;

@@ -61,7 +61,7 @@ struct BallMapResult {
     int invertedTets = 0;                  ///< exact, at the end: report key ball.inverted_tets
     double harmonicResidual = 0;           ///< relative residual of the Dirichlet solve
     std::string solver;
-    int untangleIterations = 0;            ///< L-BFGS iterations
+    int untangleIterations = 0;            ///< L-BFGS or Newton iterations (UntangleOptions::method)
     bool boundarySlid = false;             ///< untangling had to slide boundary vertices on the sphere
   } ball;
   double boundaryMaxDistance = 0;     ///< max over boundary vertices of | |u| − 1 |
