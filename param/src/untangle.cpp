@@ -384,6 +384,17 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       return E;
     };
 
+    // Sliding vertices restart from their constrained position (after each
+    // L-BFGS run, after each Newton step); true if there are any.
+    auto restartSliding = [&](Eigen::VectorXd& x) {
+      bool any = false;
+      for (size_t k = 0; k < freeVerts.size(); ++k)
+        if (slide[freeVerts[k]] != kInterior) {
+          x.segment<3>(3 * static_cast<Eigen::Index>(k)) = (W.row(freeVerts[k]).transpose() - unknown(k)) / precond[freeVerts[k]];
+          any = true;
+        }
+      return any;
+    };
     // Projected Newton (options.method == Newton): the Hessian of every tet's
     // energy in J projected onto the PSD cone (untangle_energy.h), mapped to
     // its vertices (H₁₂ = Bᵀ H₉ B) and to the unknowns through the
@@ -396,7 +407,12 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     std::vector<int> nbrOffset, nbr;      // free neighbours of each free vertex (itself included), sorted
     std::vector<Eigen::Index> colStart;   // first value of block column k
     std::vector<int> tetBlock;            // per active tet, 16 entries: position of block (a, b) in nbr, or −1
-    std::vector<Eigen::Index> diagBlock;  // value index of entry (0, 0) of block (k, k)
+    std::vector<int> diagPos;             // position of k in its own neighbour list
+    // Index in the value array of entry (r, c) of the block of column block k
+    // at position p of its neighbour list.
+    auto valueIndex = [&](size_t k, int p, int r, int c) {
+      return colStart[k] + 3 * c * (nbrOffset[k + 1] - nbrOffset[k]) + 3 * p + r;
+    };
     Eigen::SparseMatrix<double> hessian;
     Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> cholmod;
     if (useNewton) {
@@ -425,56 +441,60 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       for (Eigen::Index k = 0; k < nFree; ++k) {
         const int deg = nbrOffset[static_cast<size_t>(k) + 1] - nbrOffset[static_cast<size_t>(k)];
         for (int c = 0; c < 3; ++c) {
-          const Eigen::Index start = colStart[static_cast<size_t>(k)] + 3 * c * deg;
-          hessian.outerIndexPtr()[3 * k + c] = static_cast<int>(start);
+          hessian.outerIndexPtr()[3 * k + c] = static_cast<int>(valueIndex(static_cast<size_t>(k), 0, 0, c));
           for (int p = 0; p < deg; ++p)
             for (int r = 0; r < 3; ++r)
-              hessian.innerIndexPtr()[start + 3 * p + r] = 3 * nbr[static_cast<size_t>(nbrOffset[static_cast<size_t>(k)] + p)] + r;
+              hessian.innerIndexPtr()[valueIndex(static_cast<size_t>(k), p, r, c)] =
+                  3 * nbr[static_cast<size_t>(nbrOffset[static_cast<size_t>(k)] + p)] + r;
         }
       }
       hessian.outerIndexPtr()[n] = static_cast<int>(colStart.back());
+      auto position = [&](int k, int m) {  // of free vertex m in k's neighbour list
+        const int* first = nbr.data() + nbrOffset[static_cast<size_t>(k)];
+        const int* last = nbr.data() + nbrOffset[static_cast<size_t>(k) + 1];
+        return static_cast<int>(std::lower_bound(first, last, m) - first);
+      };
       tetBlock.assign(active.size() * 16, -1);
       tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t a = r.begin(); a != r.end(); ++a)
           for (int i = 0; i < 4; ++i)
             for (int j = 0; j < 4; ++j) {
               const int ki = inRegion[T(active[a], i)], kj = inRegion[T(active[a], j)];
-              if (ki < 0 || kj < 0) continue;
-              const int* first = nbr.data() + nbrOffset[static_cast<size_t>(kj)];
-              const int* last = nbr.data() + nbrOffset[static_cast<size_t>(kj) + 1];
-              tetBlock[16 * a + 4 * i + j] = static_cast<int>(std::lower_bound(first, last, ki) - first);
+              if (ki >= 0 && kj >= 0) tetBlock[16 * a + 4 * i + j] = position(kj, ki);
             }
       });
-      diagBlock.resize(static_cast<size_t>(nFree));
-      for (Eigen::Index k = 0; k < nFree; ++k) {
-        const int* first = nbr.data() + nbrOffset[static_cast<size_t>(k)];
-        const int* last = nbr.data() + nbrOffset[static_cast<size_t>(k) + 1];
-        diagBlock[static_cast<size_t>(k)] = colStart[static_cast<size_t>(k)] + 3 * (std::lower_bound(first, last, static_cast<int>(k)) - first);
-      }
+      diagPos.resize(static_cast<size_t>(nFree));
+      for (Eigen::Index k = 0; k < nFree; ++k) diagPos[static_cast<size_t>(k)] = position(static_cast<int>(k), static_cast<int>(k));
       cholmod.analyzePattern(hessian);
     }
-    // dW_v = M_v dx_v for free vertex k = inRegion[v], at unknowns x.
-    auto chainMatrix = [&](size_t k, const Eigen::VectorXd& x, const Eigen::VectorXd& g) -> Eigen::Matrix3d {
+    // dW_v = M dx_v for free vertex k = inRegion[v], at unknowns x, and C,
+    // the projector onto the directions the constraints remove (the sphere's
+    // normal, locked or held cube coordinates): M C = 0.
+    struct Chain {
+      Eigen::Matrix3d M, C;
+    };
+    auto chain = [&](size_t k, const Eigen::VectorXd& x, const Eigen::VectorXd& g) -> Chain {
       const int v = freeVerts[k];
       const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
-      Eigen::Matrix3d M = precond[v] * Eigen::Matrix3d::Identity();
+      Chain c{precond[v] * Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero()};
       if (slide[v] == kSphere) {
         const double len = y.norm();
         const Eigen::Vector3d nrm = y / len;
-        M = precond[v] / len * (Eigen::Matrix3d::Identity() - nrm * nrm.transpose());
+        c.C = nrm * nrm.transpose();
+        c.M = precond[v] / len * (Eigen::Matrix3d::Identity() - c.C);
       } else if (slide[v] == kCube) {
         for (int d = 0; d < 3; ++d)  // locked, or held at a bound (the gradient's active set)
-          if ((locks[v] >> d) & 1 || g[3 * static_cast<Eigen::Index>(k) + d] == 0) M(d, d) = 0;
+          if ((locks[v] >> d) & 1 || g[3 * static_cast<Eigen::Index>(k) + d] == 0) c.M(d, d) = 0, c.C(d, d) = 1;
       }
-      return M;
+      return c;
     };
     constexpr size_t kChunk = 1 << 15;
     std::vector<Eigen::Matrix3d> blocks;  // per-tet blocks of the chunk being assembled
     // Assembles the projected Hessian at x (W and eps as left by evaluate(x, &g)).
     auto assemble = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& g) {
-      std::vector<Eigen::Matrix3d> M(static_cast<size_t>(nFree));
+      std::vector<Chain> M(static_cast<size_t>(nFree));
       tbb::parallel_for(tbb::blocked_range<size_t>(0, static_cast<size_t>(nFree), 1024), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t k = r.begin(); k != r.end(); ++k) M[k] = chainMatrix(k, x, g);
+        for (size_t k = r.begin(); k != r.end(); ++k) M[k] = chain(k, x, g);
       });
       double* values = hessian.valuePtr();
       std::fill(values, values + hessian.nonZeros(), 0.0);
@@ -501,7 +521,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
                 const int ki = inRegion[T(t, i)], kj = inRegion[T(t, j)];
                 if (ki < 0 || kj < 0) continue;
                 blocks[16 * (a - from) + 4 * i + j] =
-                    M[static_cast<size_t>(ki)].transpose() * H12.block<3, 3>(3 * i, 3 * j) * M[static_cast<size_t>(kj)];
+                    M[static_cast<size_t>(ki)].M.transpose() * H12.block<3, 3>(3 * i, 3 * j) * M[static_cast<size_t>(kj)].M;
               }
           }
         });
@@ -510,28 +530,18 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
             for (int j = 0; j < 4; ++j) {
               const int p = tetBlock[16 * a + 4 * i + j];
               if (p < 0) continue;
-              const int kj = inRegion[T(active[a], j)];
-              const Eigen::Index deg = nbrOffset[static_cast<size_t>(kj) + 1] - nbrOffset[static_cast<size_t>(kj)];
+              const auto kj = static_cast<size_t>(inRegion[T(active[a], j)]);
               const Eigen::Matrix3d& B = blocks[16 * (a - from) + 4 * i + j];
               for (int c = 0; c < 3; ++c)
-                for (int r = 0; r < 3; ++r) values[colStart[static_cast<size_t>(kj)] + 3 * c * deg + 3 * p + r] += B(r, c);
+                for (int r = 0; r < 3; ++r) values[valueIndex(kj, p, r, c)] += B(r, c);
             }
       }
       // Directions the constraints remove (the sphere's normal, locked or
       // clamped cube coordinates) get a unit curvature of their own: the
       // gradient has no component there, so neither has the step.
-      for (size_t k = 0; k < static_cast<size_t>(nFree); ++k) {
-        const int v = freeVerts[k];
-        Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
-        if (slide[v] == kSphere) {
-          const Eigen::Vector3d nrm = (unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k))).normalized();
-          C = nrm * nrm.transpose();
-        } else {
-          for (int d = 0; d < 3; ++d) C(d, d) = M[k](d, d) == 0 ? 1 : 0;
-        }
+      for (size_t k = 0; k < static_cast<size_t>(nFree); ++k)
         for (int c = 0; c < 3; ++c)
-          for (int r = 0; r < 3; ++r) values[diagBlock[k] + 3 * c * (nbrOffset[k + 1] - nbrOffset[k]) + r] += C(r, c);
-      }
+          for (int r = 0; r < 3; ++r) values[valueIndex(k, diagPos[k], r, c)] += M[k].C(r, c);
     };
     // Minimises E_eps from x; returns the Newton iterations used.
     auto newton = [&](Eigen::VectorXd& x) {
@@ -543,9 +553,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         if (!options.relax && detMin() > 0) break;  // untangled (the caller confirms exactly)
         assemble(x, g);
         auto diag = [&](Eigen::Index i) -> double& {
-          const size_t k = static_cast<size_t>(i / 3);
-          const Eigen::Index c = i % 3;
-          return hessian.valuePtr()[diagBlock[k] + 3 * c * (nbrOffset[k + 1] - nbrOffset[k]) + c];
+          const auto k = static_cast<size_t>(i / 3);
+          const int c = static_cast<int>(i % 3);
+          return hessian.valuePtr()[valueIndex(k, diagPos[k], c, c)];
         };
         double maxDiag = 0;
         for (Eigen::Index i = 0; i < n; ++i) maxDiag = std::max(maxDiag, diag(i));
@@ -582,14 +592,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         g.swap(gNew);
         const double decrease = f - fNew;
         f = fNew;
-        // Sliding vertices: restart from their constrained position.
-        bool moved = false;
-        for (size_t k = 0; k < freeVerts.size(); ++k)
-          if (slide[freeVerts[k]] != kInterior) {
-            x.segment<3>(3 * static_cast<Eigen::Index>(k)) = (W.row(freeVerts[k]).transpose() - unknown(k)) / precond[freeVerts[k]];
-            moved = true;
-          }
-        if (moved) f = evaluate(x, &g);
+        if (restartSliding(x)) f = evaluate(x, &g);
         if (decrease <= 1e-9 * std::abs(f) || -slope <= 1e-12 * std::abs(f)) {
           ++it;
           break;
@@ -614,10 +617,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         result.lbfgsIterations += lbfgs([&](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return evaluate(y, &g); }, x,
                                         options.maxLbfgsIterations, options.lbfgsMemory);
       const double E = evaluate(x, nullptr);
-      // Sliding vertices: restart from their constrained position.
-      for (size_t k = 0; k < freeVerts.size(); ++k)
-        if (slide[freeVerts[k]] != kInterior)
-          x.segment<3>(3 * static_cast<Eigen::Index>(k)) = (W.row(freeVerts[k]).transpose() - unknown(k)) / precond[freeVerts[k]];
+      restartSliding(x);
       const double dmin = detMin();
       ++result.outerIterations;
       result.minDet = dmin;

@@ -148,8 +148,9 @@ inline Matrix9d untangleHessianProjected(const Eigen::Matrix3d& J, double eps, d
 }
 
 /// Replaces the symmetric H by its nearest positive semi-definite matrix
-/// (negative eigenvalues set to 0). A positive definite H is left as it is
-/// (a Cholesky test first: most tets of a map being untangled have one).
+/// (negative eigenvalues set to 0), numerically; a positive definite H is
+/// left as it is. The reference that untangleHessianProjected is tested
+/// against (untangle_test.cpp); the untangler uses the analytic one.
 inline void projectToPsd(Matrix9d& H) {
   Eigen::LLT<Matrix9d> llt(H);
   if (llt.info() == Eigen::Success) return;
