@@ -16,6 +16,7 @@
 #include "tet2spline/param/topology.h"
 #include "tet2spline/spline/boundary_distance.h"
 #include "tet2spline/spline/element_regions.h"
+#include "tet2spline/spline/face_coverage.h"
 #include "tet2spline/spline/fit.h"
 
 namespace tet2spline::cli {
@@ -106,7 +107,41 @@ json runFitStage(const TetMesh& mesh, const Eigen::MatrixX3d& U, const FitStageO
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     for (int c = 0; c < 3; ++c) boundary[F(f, c)] = true;
 
+  // The wedges that boundary triangles cut off the cube's edges and corners
+  // get data on their faces (face_coverage.h), weighted like boundary
+  // vertices per unit of face area. Measured on part.off (a third of the
+  // faces' area uncovered): at 8³ spline volume 16% -> 0.6% above the mesh's,
+  // boundary Hausdorff 0.108 -> 0.095 of the diagonal; at 16³ Hausdorff 0.074
+  // -> 0.058, volume 1.3% above, but the fit 18 -> 34 s (the validity stage
+  // now works on the thin layer the wedges map to). Samples weighted 0.1 or
+  // 0.3 of this: Hausdorff 0.081 / 0.070, fit 27 s. fandisk (99.5% of the
+  // cube covered) at 8³: Hausdorff 0.0245 -> 0.0253, volume unchanged.
+  const int perSide = 4 * std::max(1, options.elements.maxCoeff()) + 1;
+  const spline::FaceCoverageSamples cover = spline::uncoveredFaceSamples(U, mesh.V, F, perSide, options.threads);
+  const long ncover = cover.U.rows();
+  Eigen::MatrixX3d dataU = U, dataX = mesh.V;
+  Eigen::VectorXd dataWeight = weight;
+  Eigen::Array<bool, Eigen::Dynamic, 1> dataBoundary = boundary;
+  if (ncover > 0) {
+    const long nb = boundary.count();
+    double meanBoundaryWeight = 0;
+    for (Eigen::Index i = 0; i < nv; ++i)
+      if (boundary[i]) meanBoundaryWeight += weight[i];
+    meanBoundaryWeight /= static_cast<double>(std::max<long>(1, nb));
+    const double h = 1.0 / (perSide - 1);
+    const double sampleWeight = meanBoundaryWeight * h * h * static_cast<double>(nb) / std::max(1e-12, cover.coveredArea);
+    dataU.conservativeResize(nv + ncover, 3);
+    dataX.conservativeResize(nv + ncover, 3);
+    dataU.bottomRows(ncover) = cover.U;
+    dataX.bottomRows(ncover) = cover.X;
+    dataWeight.conservativeResize(nv + ncover);
+    dataWeight.tail(ncover).setConstant(sampleWeight);
+    dataBoundary.conservativeResize(nv + ncover);
+    dataBoundary.tail(ncover) = true;
+  }
+
   spline::FitOptions fo;
+  fo.measuredPoints = nv;
   fo.degree = options.degree;
   fo.elements = options.elements;
   fo.smoothingWeight = options.smoothing;
@@ -119,7 +154,7 @@ json runFitStage(const TetMesh& mesh, const Eigen::MatrixX3d& U, const FitStageO
   log.stage("fit", head.str());
   spline::FitResult fit;
   try {
-    fit = spline::fitBSplineVolume(U, mesh.V, weight, boundary, fo);
+    fit = spline::fitBSplineVolume(dataU, dataX, dataWeight, dataBoundary, fo);
   } catch (const Error& e) {
     if (e.kind() == ErrorKind::Usage) throw Error(ErrorKind::Input, src + ": " + e.what());
     throw;
@@ -165,6 +200,8 @@ json runFitStage(const TetMesh& mesh, const Eigen::MatrixX3d& U, const FitStageO
   setPath(report, "spline.mesh_volume", meshVolume);
   setPath(report, "fit.points", static_cast<long>(nv));
   setPath(report, "fit.boundary_points", static_cast<long>(boundary.count()));
+  setPath(report, "fit.face_samples", ncover);
+  setPath(report, "fit.covered_face_area", cover.coveredArea);
   setPath(report, "fit.smoothing", fit.smoothingWeight);
   setPath(report, "fit.smoothing_requested", options.smoothing);
   setPath(report, "fit.rms_error_relative", fit.rmsErrorRelative);

@@ -914,7 +914,8 @@ FitResult fitOnce(const Eigen::MatrixX3d& U, const Eigen::MatrixX3d& X, const Ei
   res.meanDetJ = q.meanDetJ;
   res.minScaledJacobian = q.minScaledJacobian;
   std::vector<double> sq(static_cast<size_t>(std::max(1, opt.threads)), 0.0), mx(sq.size(), 0.0);
-  parallelChunks(opt.threads, N, [&](long b, long e, int t) {
+  const long measured = opt.measuredPoints >= 0 ? std::min(opt.measuredPoints, N) : N;
+  parallelChunks(opt.threads, measured, [&](long b, long e, int t) {
     for (long i = b; i < e; ++i) {
       const double err = (res.volume.evaluate(Eigen::Vector3d(U.row(i).transpose())) - X.row(i).transpose()).norm();
       sq[t] += err * err;
@@ -926,7 +927,7 @@ FitResult fitOnce(const Eigen::MatrixX3d& U, const Eigen::MatrixX3d& X, const Ei
     s += sq[t];
     res.maxError = std::max(res.maxError, mx[t]);
   }
-  res.rmsError = N > 0 ? std::sqrt(s / N) : 0.0;
+  res.rmsError = measured > 0 ? std::sqrt(s / static_cast<double>(measured)) : 0.0;
   res.rmsErrorRelative = diag > 0 ? res.rmsError / diag : 0.0;
   res.maxErrorRelative = diag > 0 ? res.maxError / diag : 0.0;
   res.timings.evaluation = since(t3);

@@ -21,6 +21,7 @@
 #include <cmath>
 #include <fstream>
 #include <set>
+#include <tuple>
 
 #include "cli_runner.h"
 #include "tet2spline/io/mesh_io.h"
@@ -147,9 +148,14 @@ TEST(ConvertCli, TwoMaterialDemoWithDensityFour) {
   EXPECT_LE(ratio, 4.8);
 }
 
-// A real mesh nobody here wrote (Debian's libcgal-demo data), volume preserving.
-TEST(ConvertCli, RealMeshEndToEnd) {
-  const auto [r, out] = convert("convert_blobby", t2stest::cgalMesh("blobby"), "--elements 8 -q");
+// Real meshes nobody here wrote (Debian's libcgal-demo data), volume
+// preserving: a smooth blob at 8³ elements, and at the default 16³ a coarse
+// one (655 vertices) and a CAD-like one with sharp features.
+class ConvertRealMesh : public ::testing::TestWithParam<std::tuple<const char*, const char*>> {};
+
+TEST_P(ConvertRealMesh, EndToEnd) {
+  const auto [name, args] = GetParam();
+  const auto [r, out] = convert(std::string("convert_") + name, t2stest::cgalMesh(name), std::string(args) + " -q");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(r.err.empty()) << r.err;
   const json j = readJson(out / "report.json");
@@ -157,6 +163,11 @@ TEST(ConvertCli, RealMeshEndToEnd) {
   ASSERT_EQ(j["regions"].size(), 1u);
   EXPECT_NEAR(j["regions"][0]["target_volume_fraction"].get<double>(), 1, 1e-12);
 }
+
+INSTANTIATE_TEST_SUITE_P(Genus0, ConvertRealMesh,
+                         ::testing::Values(std::make_tuple("blobby", "--elements 8"), std::make_tuple("blob-closed", ""),
+                                           std::make_tuple("fandisk", "")),
+                         [](const auto& info) { return t2stest::testName(std::get<0>(info.param)); });
 
 // The CAD demo with a void (STEP, read and tessellated by OpenCASCADE): the
 // void is filled with tets tagged as a void region, keeps its share of the

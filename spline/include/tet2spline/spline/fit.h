@@ -72,6 +72,10 @@ struct FitOptions {
   /// Linear stage (1): CHOLMOD on the assembled normal equations (fast), or
   /// the same objective as a Ceres problem (SPARSE_NORMAL_CHOLESKY).
   enum class LinearSolver { Cholmod, Ceres } linearSolver = LinearSolver::Cholmod;
+  /// The errors of FitResult (RMS, max) are measured at the first this many
+  /// points (the mesh's vertices); the rest are extra data, e.g. the face
+  /// samples of face_coverage.h. < 0: at every point.
+  long measuredPoints = -1;
   int threads = 2;
   ProgressCallback progress = {};         ///< called per stage; return false to stop
 };
