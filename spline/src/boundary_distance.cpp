@@ -1,13 +1,11 @@
 // Spline boundary against a triangle surface, both ways. CGAL's AABB tree
-// (GPL) is used in this file only.
+// (GPL) comes through triangle_tree.h, shared with face_coverage.cpp only.
 #include <tet2spline/spline/boundary_distance.h>
 
 #include <tet2spline/param/error.h>
 
-#include <CGAL/AABB_traits.h>
-#include <CGAL/AABB_tree.h>
-#include <CGAL/AABB_triangle_primitive.h>
-#include <CGAL/Simple_cartesian.h>
+#include "parallel_chunks.h"
+#include "triangle_tree.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -21,16 +19,13 @@
 namespace tet2spline::spline {
 namespace {
 
-using K = CGAL::Simple_cartesian<double>;
-using Point = K::Point_3;
-using Triangle = K::Triangle_3;
-using Primitive = CGAL::AABB_triangle_primitive<K, std::vector<Triangle>::const_iterator>;
-using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, Primitive>>;
+using detail::Point;
+using detail::toEigen;
+using detail::toPoint;
+using detail::Triangle;
+using Tree = detail::TriangleTree;
 
 [[noreturn]] void usage(const std::string& what) { throw Error(ErrorKind::Usage, "boundaryDistance: " + what); }
-
-Point toPoint(const Eigen::Vector3d& x) { return {x[0], x[1], x[2]}; }
-Eigen::Vector3d toEigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
 /// Max and sum over chunks of [0, count) run on up to `threads` threads.
 struct MaxSum {
@@ -39,18 +34,13 @@ struct MaxSum {
 MaxSum parallelMaxSum(int threads, long count, const std::function<double(long)>& f) {
   threads = std::max(1, std::min<int>(threads, static_cast<int>(std::max<long>(1, count / 1000))));
   std::vector<MaxSum> part(static_cast<size_t>(threads));
-  auto run = [&](int t) {
-    const long b = count * t / threads, e = count * (t + 1) / threads;
+  detail::parallelChunks(threads, count, [&](long b, long e, int t) {
     for (long i = b; i < e; ++i) {
       const double d = f(i);
       part[static_cast<size_t>(t)].max = std::max(part[static_cast<size_t>(t)].max, d);
       part[static_cast<size_t>(t)].sum += d;
     }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(run, t);
-  run(0);
-  for (auto& th : pool) th.join();
+  });
   MaxSum out;
   for (const auto& p : part) {
     out.max = std::max(out.max, p.max);
@@ -196,10 +186,8 @@ BoundaryDistance boundaryDistance(const BSplineVolume& volume, const SurfaceMesh
       // Face parameters of the nearest tessellation point (barycentric).
       const Eigen::Vector3d p = toEigen(hit.first), a = fs.points[static_cast<size_t>(c[0])],
                             b = fs.points[static_cast<size_t>(c[1])], d = fs.points[static_cast<size_t>(c[2])];
-      const Eigen::Vector3d n = (b - a).cross(d - a);
-      const double nn = n.squaredNorm();
-      const double wb = (p - a).cross(d - a).dot(n) / nn, wd = (b - a).cross(p - a).dot(n) / nn;
-      const double wa = 1.0 - wb - wd;
+      const Eigen::Vector3d w = detail::barycentric(p, a, b, d);
+      const double wa = w[0], wb = w[1], wd = w[2];
       const auto& pa = fs.params[static_cast<size_t>(c[0])];
       const auto& pb = fs.params[static_cast<size_t>(c[1])];
       const auto& pd = fs.params[static_cast<size_t>(c[2])];

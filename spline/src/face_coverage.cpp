@@ -3,53 +3,21 @@
 
 #include <tet2spline/param/error.h>
 
+#include "parallel_chunks.h"
+#include "triangle_tree.h"
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <string>
-#include <thread>
 #include <vector>
 
 namespace tet2spline::spline {
 namespace {
 
 [[noreturn]] void usage(const std::string& what) { throw Error(ErrorKind::Usage, "uncoveredFaceSamples: " + what); }
-
-/// Nearest point of triangle abc to p, as barycentric weights (Ericson,
-/// Real-Time Collision Detection, 5.1.5).
-Eigen::Vector3d nearestBarycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                                   const Eigen::Vector3d& c) {
-  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return {1, 0, 0};
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return {0, 1, 0};
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    const double v = d1 / (d1 - d3);
-    return {1 - v, v, 0};
-  }
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return {0, 0, 1};
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    const double w = d2 / (d2 - d6);
-    return {1 - w, 0, w};
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return {0, 1 - w, w};
-  }
-  const double denom = 1 / (va + vb + vc);
-  const double v = vb * denom, w = vc * denom;
-  return {1 - v - w, v, w};
-}
 
 /// The face (2·axis + side) that all three vertices lie in, or -1.
 int faceOf(const Eigen::MatrixX3d& U, const Eigen::Vector3i& f, double tol) {
@@ -130,34 +98,28 @@ FaceCoverageSamples uncoveredFaceSamples(const Eigen::MatrixX3d& U, const Eigen:
   // Nearest cutting-triangle point of each uncovered sample; samples farther
   // than the longest cutting edge are not in a wedge (a hole of some other
   // kind) and get no target.
+  std::vector<detail::Triangle> triangles;
+  triangles.reserve(cutting.size());
+  for (int t : cutting)
+    triangles.emplace_back(detail::toPoint(U.row(F(t, 0)).transpose()), detail::toPoint(U.row(F(t, 1)).transpose()),
+                           detail::toPoint(U.row(F(t, 2)).transpose()));
+  detail::TriangleTree tree(triangles.begin(), triangles.end());
+  tree.accelerate_distance_queries();
   const long ns = static_cast<long>(samples.size());
   std::vector<Eigen::Vector3d> target(static_cast<size_t>(ns));
   std::vector<std::uint8_t> keep(static_cast<size_t>(ns), 0);
-  auto work = [&](long b, long e) {
+  detail::parallelChunks(static_cast<int>(std::max<long>(1, std::min<long>(threads, ns / 256))), ns, [&](long b, long e, int) {
     for (long k = b; k < e; ++k) {
       const Eigen::Vector3d& s = samples[static_cast<size_t>(k)];
-      double best = std::numeric_limits<double>::infinity();
-      Eigen::Vector3d bestX = Eigen::Vector3d::Zero();
-      for (int t : cutting) {
-        const Eigen::Vector3i f = F.row(t).transpose();
-        const Eigen::Vector3d a = U.row(f[0]).transpose(), bb = U.row(f[1]).transpose(), c = U.row(f[2]).transpose();
-        const Eigen::Vector3d w = nearestBarycentric(s, a, bb, c);
-        const double dist = (w[0] * a + w[1] * bb + w[2] * c - s).squaredNorm();
-        if (dist < best) {
-          best = dist;
-          bestX = (w[0] * X.row(f[0]) + w[1] * X.row(f[1]) + w[2] * X.row(f[2])).transpose();
-        }
-      }
-      if (std::sqrt(best) <= maxCutEdge) {
-        target[static_cast<size_t>(k)] = bestX;
-        keep[static_cast<size_t>(k)] = 1;
-      }
+      const auto hit = tree.closest_point_and_primitive(detail::toPoint(s));
+      const Eigen::Vector3d p = detail::toEigen(hit.first);
+      if ((p - s).norm() > maxCutEdge) continue;
+      const Eigen::Vector3i f = F.row(cutting[static_cast<size_t>(hit.second - triangles.begin())]).transpose();
+      const Eigen::Vector3d w = detail::barycentric(p, U.row(f[0]).transpose(), U.row(f[1]).transpose(), U.row(f[2]).transpose());
+      target[static_cast<size_t>(k)] = (w[0] * X.row(f[0]) + w[1] * X.row(f[1]) + w[2] * X.row(f[2])).transpose();
+      keep[static_cast<size_t>(k)] = 1;
     }
-  };
-  const int nt = std::max(1, std::min<int>(threads, static_cast<int>(std::max<long>(1, ns / 256))));
-  std::vector<std::thread> pool;
-  for (int t = 0; t < nt; ++t) pool.emplace_back(work, ns * t / nt, ns * (t + 1) / nt);
-  for (auto& th : pool) th.join();
+  });
 
   const long kept = std::count(keep.begin(), keep.end(), 1);
   out.U.resize(kept, 3);

@@ -14,6 +14,7 @@
 #include <tet2spline/spline/fit.h>
 
 #include "fit_costs.h"
+#include "parallel_chunks.h"
 
 #include <ceres/ceres.h>
 
@@ -39,20 +40,7 @@ double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 
 [[noreturn]] void usage(const std::string& what) { throw Error(ErrorKind::Usage, "fitBSplineVolume: " + what); }
 
-/// Runs fn(begin, end) on `threads` contiguous chunks of [0, count).
-void parallelChunks(int threads, long count, const std::function<void(long, long, int)>& fn) {
-  threads = std::max(1, std::min<int>(threads, static_cast<int>(std::max<long>(1, count))));
-  if (threads == 1) {
-    fn(0, count, 0);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    const long b = count * t / threads, e = count * (t + 1) / threads;
-    pool.emplace_back(fn, b, e, t);
-  }
-  for (auto& th : pool) th.join();
-}
+using detail::parallelChunks;
 
 /// One direction's Gauss points per element with basis values and derivatives.
 struct DirectionTable {
