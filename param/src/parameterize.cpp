@@ -545,7 +545,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       UntangleOptions untangleOptions = options.untangle;
       untangleOptions.targetVolumes = r.targetVolume;
       untangleOptions.progress = [&](double, const std::string& m) {
-        return !options.progress || options.progress(-1, "untangle: " + m);
+        return !options.progress || options.progress(-1, "final " + m);
       };
       // With the boundary held, the tets on boundary triangles the placement
       // flipped cannot be repaired, so the boundary vertices within
