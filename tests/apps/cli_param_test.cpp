@@ -176,8 +176,10 @@ TEST(CliParam, VerbosePrintsEveryProgressMessageAsALine) {
   EXPECT_EQ(plain.err.find("newton 1:"), std::string::npos) << plain.err;
   const auto verbose = runCli("param " + in + " -o " + q(dir / "b.vtu") + " -v", dir);
   ASSERT_EQ(verbose.status, 0) << verbose.err;
-  for (const char* line : {"param: 1% split", "harmonic map", "newton 1:", "composition", "untangle: eps"})
+  for (const char* line : {"param: 1% split", "harmonic map", "newton 1:", "composition", "param: untangle: eps",
+                           "param: final untangle: eps"})
     EXPECT_NE(verbose.err.find(line), std::string::npos) << line << "\n" << verbose.err;
+  EXPECT_EQ(verbose.err.find("untangle: untangle"), std::string::npos) << "a doubled prefix\n" << verbose.err;
   EXPECT_GT(verbose.errLines(), plain.errLines() + 5);
   // -q wins over -v.
   const auto quiet = runCli("param " + in + " -o " + q(dir / "c.vtu") + " -v -q", dir);
