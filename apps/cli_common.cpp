@@ -19,6 +19,10 @@ void InputOptions::addTo(CLI::App* cmd) {
       ->required();
   cmd->add_option("--quality", quality, "TetGen radius-edge bound for surface/CAD input (0 = none)")
       ->check(CLI::Range(0.0, 100.0))->capture_default_str();
+  cmd->add_option("--min-dihedral", minDihedral,
+                  "TetGen's quality refinement also removes tets with a dihedral angle below this many degrees "
+                  "(0 = no angle bound; at most 18)")
+      ->check(CLI::Range(0.0, 18.0))->capture_default_str();
   cmd->add_option("--max-volume", maxVolume, "largest tet volume for surface/CAD input (0 = no limit)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--size", size, "target edge length relative to the bounding-box diagonal (0 = none)")
@@ -37,6 +41,7 @@ LoadOptions InputOptions::loadOptions(bool validate) const {
   LoadOptions o;
   o.meshing.radiusEdgeRatio = quality;
   o.meshing.maxVolume = maxVolume;
+  o.meshing.minDihedral = minDihedral;
   o.meshing.relativeSize = size;
   o.meshing.voids = voids;
   // Merged facets: TetGen remeshes flat and nearly flat parts of the surface,

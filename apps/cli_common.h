@@ -24,6 +24,7 @@ struct Command {
 struct InputOptions {
   std::string input;
   double quality = 1.5;
+  double minDihedral = 0;
   double maxVolume = 0;
   double size = 0;
   bool voids = false;

@@ -125,6 +125,12 @@ TetMesh tetrahedralize(const SurfaceMesh& input, const TetrahedralizeOptions& op
   if (options.radiusEdgeRatio != 0 && !(options.radiusEdgeRatio >= 1))
     throw Error(ErrorKind::Usage, "tetrahedralize: radius-edge ratio " + std::to_string(options.radiusEdgeRatio) +
                                       " must be 0 (no refinement) or at least 1");
+  if (!(options.minDihedral >= 0 && options.minDihedral <= 18))
+    throw Error(ErrorKind::Usage, "tetrahedralize: minimum dihedral angle " + std::to_string(options.minDihedral) +
+                                      " must be in [0, 18] degrees (TetGen's refinement need not end above)");
+  if (options.minDihedral > 0 && options.radiusEdgeRatio == 0)
+    throw Error(ErrorKind::Usage, "tetrahedralize: a minimum dihedral angle needs the quality refinement "
+                                  "(radius-edge ratio > 0)");
   if (!(options.maxVolume >= 0) || !(options.relativeSize >= 0))
     throw Error(ErrorKind::Usage, "tetrahedralize: negative or NaN size");
   SurfaceReport report = analyzeSurface(input, true);
@@ -227,6 +233,7 @@ TetMesh tetrahedralize(const SurfaceMesh& input, const TetrahedralizeOptions& op
     throw Error(ErrorKind::Numerical, "tetrahedralize: TetGen rejected switches " + switches);
   if (options.radiusEdgeRatio > 0) behavior.minratio = options.radiusEdgeRatio;
   if (maxVolume > 0) behavior.maxvolume = maxVolume;
+  if (options.minDihedral > 0) behavior.mindihedral = options.minDihedral;
   // TetGen merges adjacent facets within 0.1° of coplanar (-p/179.9) and then
   // places boundary Steiner points on the merged facet, up to ~1e-5 × size
   // off the input surface; 180° keeps every input triangle its own facet.

@@ -38,7 +38,7 @@ void expectOneLineError(const t2stest::RunResult& r, int status, const std::stri
 TEST(Cli, BadCommandLinesExitWithStatus2) {
   const auto dir = t2stest::scratchDir("cli_usage");
   for (const std::string args : {"", "frobnicate x.off", "check", "check x.off --no-such-option", "mesh x.off",
-                                 "mesh x.off -o out.vtu --quality -1"}) {
+                                 "mesh x.off -o out.vtu --quality -1", "mesh x.off -o out.vtu --min-dihedral 25"}) {
     const auto r = runCli(args, dir);
     EXPECT_EQ(r.status, 2) << "args: " << args << "\n" << r.err;
     EXPECT_FALSE(r.err.empty()) << args;
@@ -109,6 +109,20 @@ TEST(Cli, MeshThenCheckAWellFormedSolid) {
                             "\"inverted_tets\": 0"})
       EXPECT_NE(c.out.find(key), std::string::npos) << key << " missing in " << c.out;
   }
+}
+
+TEST(Cli, MinimumDihedralAngleWithoutQualityRefinementIsRefused) {
+  const auto dir = t2stest::scratchDir("cli_min_dihedral");
+  const auto in = writeText(dir, "octa.off", kOctahedron);
+  const auto out = dir / "octa.vtu";
+  const auto bad = runCli("mesh " + q(in) + " -o " + q(out) + " --quality 0 --min-dihedral 10", dir);
+  EXPECT_EQ(bad.status, 2) << bad.err;
+  EXPECT_EQ(bad.errLines(), 1) << bad.err;
+  EXPECT_NE(bad.err.find("dihedral"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(out));
+  const auto ok = runCli("mesh " + q(in) + " -o " + q(out) + " --min-dihedral 12", dir);
+  EXPECT_EQ(ok.status, 0) << ok.err;
+  EXPECT_TRUE(fs::exists(out));
 }
 
 TEST(Cli, UnwritableOutputExitsWithStatus3AndWritesNothing) {

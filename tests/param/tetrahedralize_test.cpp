@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <utility>
 
 #include "param/test_shapes.h"
 #include "test_data.h"
@@ -40,6 +41,23 @@ void expectValidBall(const TetMesh& m, const std::string& name) {
   EXPECT_EQ(r.degenerateTets, 0) << name;
   EXPECT_EQ(r.unusedVertices, 0) << name;
   EXPECT_EQ(countNonPositiveTets(m.V, m.T), 0) << name;
+}
+
+/// Smallest dihedral angle of tet t, in degrees: π minus the angle between
+/// the outward normals of the two faces at an edge.
+double minDihedralDegrees(const TetMesh& m, Eigen::Index t) {
+  Eigen::Vector3d p[4], n[4];
+  for (int k = 0; k < 4; ++k) p[k] = m.V.row(m.T(t, k)).transpose();
+  for (int k = 0; k < 4; ++k) {  // face opposite k
+    const Eigen::Vector3d &a = p[(k + 1) % 4], &b = p[(k + 2) % 4], &c = p[(k + 3) % 4];
+    n[k] = (b - a).cross(c - a).normalized();
+    if (n[k].dot(p[k] - a) > 0) n[k] = -n[k];
+  }
+  double smallest = 180;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j)
+      smallest = std::min(smallest, 180 - std::acos(std::clamp(n[i].dot(n[j]), -1.0, 1.0)) * 180 / M_PI);
+  return smallest;
 }
 
 ErrorKind tetrahedralizeError(const SurfaceMesh& s, const std::string& name, std::string* message = nullptr) {
@@ -92,6 +110,48 @@ TEST(Tetrahedralize, BadOptionsAreUsageErrors) {
   } catch (const Error& e) {
     EXPECT_EQ(e.kind(), ErrorKind::Usage);
   }
+}
+
+TEST(Tetrahedralize, BadMinimumDihedralAnglesAreUsageErrors) {
+  for (const auto& [angle, ratio] : {std::pair<double, double>{25, 1.5}, {-1, 1.5}, {10, 0}}) {
+    TetrahedralizeOptions options;
+    options.minDihedral = angle;
+    options.radiusEdgeRatio = ratio;
+    try {
+      tetrahedralize(t2stest::sphere(1), options);
+      ADD_FAILURE() << angle << "° with ratio " << ratio << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::Usage) << e.what();
+    }
+  }
+}
+
+// TetGen's own dihedral bound. TetGen cannot split a tet whose small angle
+// comes from the input surface itself (spool.off: 26 tets below 5° with or
+// without the bound, the smallest 1.4°), so the test asks for what it does
+// reach: at most 60% as many tets below the bound (measured: 516 -> 240,
+// for 47% more tets), none more below 5°, and still a valid ball.
+TEST(TetrahedralizeReal, MinimumDihedralAngleRemovesSlivers) {
+  const SurfaceMesh s = readSurface(t2stest::cgalMesh("spool"));
+  TetrahedralizeOptions o;
+  o.exactBoundary = false;
+  auto slivers = [](const TetMesh& m, double degrees) {
+    int n = 0;
+    for (Eigen::Index t = 0; t < m.T.rows(); ++t) n += minDihedralDegrees(m, t) < degrees;
+    return n;
+  };
+  const TetMesh plain = tetrahedralize(s, o, "spool");
+  o.minDihedral = 15;
+  const TetMesh bounded = tetrahedralize(s, o, "spool");
+  expectValidBall(bounded, "spool, 15 degrees");
+  EXPECT_NEAR(t2stest::totalVolume(bounded), t2stest::totalVolume(plain), 1e-4 * t2stest::totalVolume(plain));
+  double smallest = 180;
+  for (Eigen::Index t = 0; t < bounded.T.rows(); ++t) smallest = std::min(smallest, minDihedralDegrees(bounded, t));
+  std::printf("spool: %lld tets, %d below 5 deg, %d below 15 deg; with 15 deg: %lld tets, %d below 5, %d below 15, smallest %.2f deg\n",
+              (long long)plain.T.rows(), slivers(plain, 5), slivers(plain, 15), (long long)bounded.T.rows(),
+              slivers(bounded, 5), slivers(bounded, 15), smallest);
+  EXPECT_LE(slivers(bounded, 15), 0.6 * slivers(plain, 15));
+  EXPECT_LE(slivers(bounded, 5), slivers(plain, 5));
 }
 
 TEST(Tetrahedralize, InwardOrientedSphereIsMeshedTheSame) {
