@@ -126,7 +126,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   W.row(nv) = apex;
   std::vector<bool> fixed(fixed0);
   fixed.push_back(true);
-  enum Slide : char { kInterior = 0, kSphere = 1, kCube = 2 };
+  // kCubeRadial: a cube-face vertex that may cross onto another face
+  // (options.cubeAcrossEdges), at p(y) = c + (y − c) ½ / max_k |y_k − c_k|.
+  enum Slide : char { kInterior = 0, kSphere = 1, kCube = 2, kCubeRadial = 3 };
   std::vector<char> slide(static_cast<size_t>(nvx), kInterior);
   std::vector<std::uint8_t> locks(static_cast<size_t>(nvx), 0);
   for (Eigen::Index f = 0; f < nc; ++f)
@@ -144,6 +146,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         throw Error(ErrorKind::Input, "untangle: cube face vertex " + std::to_string(v) +
                                           " has no locked coordinate (it would leave the cube's boundary)");
       locks[v] = lock;
+      if (options.cubeAcrossEdges && __builtin_popcount(lock) == 1) slide[v] = kCubeRadial;
     }
   auto positive = [&](Eigen::Index t) {
     Eigen::Vector3d p[4];
@@ -320,6 +323,13 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       } else if (slide[v] == kCube) {  // locked coordinates keep their bits, free ones stay in [0, 1]
         for (int d = 0; d < 3; ++d)
           W(v, d) = (locks[v] >> d) & 1 ? base(static_cast<Eigen::Index>(k), d) : std::clamp(y[d], 0.0, 1.0);
+      } else if (slide[v] == kCubeRadial) {  // onto the face that the ray from the centre meets, exactly
+        const Eigen::Vector3d d = y - apex.transpose();
+        Eigen::Index a = 0;
+        const double m = d.cwiseAbs().maxCoeff(&a);
+        if (!(m > 0)) return;  // at the centre: no ray; keep the last position
+        for (int j = 0; j < 3; ++j) W(v, j) = std::clamp(0.5 + 0.5 * d[j] / m, 0.0, 1.0);
+        W(v, a) = d[a] > 0 ? 1 : 0;
       } else {
         W.row(v) = y.transpose();
       }
@@ -365,6 +375,18 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               const double len = y.norm();
               const Eigen::Vector3d n = y / len;
               s = (s - n * n.dot(s)) / len;
+            } else if (slide[v] == kCubeRadial) {  // chain rule through p(y): ½/|d_a| (I − d e_aᵀ/d_a)
+              const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
+              const Eigen::Vector3d d = y - apex.transpose();
+              Eigen::Index a = 0;
+              const double m = d.cwiseAbs().maxCoeff(&a);
+              if (m > 0) {
+                const double dg = d.dot(s);
+                s *= 0.5 / m;
+                s[a] -= 0.5 / m * dg / d[a];
+              } else {
+                s.setZero();
+              }
             } else if (slide[v] == kCube) {  // chain rule through the lock and the clamp
               const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
               // Beyond a bound the clamp makes E flat in that coordinate; at
@@ -482,6 +504,16 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         const Eigen::Vector3d nrm = y / len;
         c.C = nrm * nrm.transpose();
         c.M = precond[v] / len * (Eigen::Matrix3d::Identity() - c.C);
+      } else if (slide[v] == kCubeRadial) {
+        const Eigen::Vector3d d = y - apex.transpose();
+        Eigen::Index a = 0;
+        const double m = d.cwiseAbs().maxCoeff(&a);
+        if (m > 0) {
+          c.C = d * d.transpose() / d.squaredNorm();  // the ray: p(y) does not change along it
+          Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
+          P.col(a) -= d / d[a];
+          c.M = precond[v] * 0.5 / m * P;
+        }
       } else if (slide[v] == kCube) {
         for (int d = 0; d < 3; ++d)  // locked, or held at a bound (the gradient's active set)
           if ((locks[v] >> d) & 1 || g[3 * static_cast<Eigen::Index>(k) + d] == 0) c.M(d, d) = 0, c.C(d, d) = 1;

@@ -160,6 +160,56 @@ TEST_P(UntangleCubeMethods, BoundarySlidesOnTheCubeAndNothingFlips) {
   }
 }
 
+// A face vertex that starts on the wrong side of a cube edge: on the grid,
+// the vertex of face x = 1 next to the edge x = z = 1 is put on face z = 1,
+// mirrored across the edge, so its triangles are flipped. Locked to face
+// z = 1 it can at best reach the edge (flat cones); crossing it untangles.
+TEST_P(UntangleCubeMethods, AVertexOnTheWrongFaceCrossesTheEdge) {
+  const int n = 4;
+  CubeCase c = tangledCube(n);
+  c.U = c.mesh.V;
+  const double h = 1.0 / n;
+  Eigen::Index moved = -1;
+  for (Eigen::Index v = 0; v < c.U.rows() && moved < 0; ++v)
+    if (c.locks[v] == 1 && c.U(v, 0) == 1 && std::abs(c.U(v, 2) - (1 - h)) < 1e-12 && c.U(v, 1) > 0 && c.U(v, 1) < 1)
+      moved = v;
+  ASSERT_GE(moved, 0);
+  c.U(moved, 0) = 1 - h;
+  c.U(moved, 2) = 1;
+  c.locks[moved] = 4;
+  ASSERT_GT(flippedCubeTriangles(c.U, c.faces), 0);
+  UntangleOptions o;
+  o.method = GetParam();
+  o.cubeFaces = c.faces;
+  o.cubeLocks = c.locks;
+  const std::vector<bool> none(static_cast<size_t>(c.U.rows()), false);
+  const UntangleResult locked = untangle(c.mesh.V, c.mesh.T, c.U, none, o);
+  EXPECT_GT(locked.invertedAfter + locked.flippedBoundaryTriangles, 0) << "the locked vertex could be repaired";
+  o.cubeAcrossEdges = true;
+  const UntangleResult r = untangle(c.mesh.V, c.mesh.T, c.U, none, o);
+  EXPECT_TRUE(r.status.ok) << r.status.message;
+  EXPECT_EQ(countNonPositiveTets(r.U, c.mesh.T), 0);
+  EXPECT_EQ(flippedCubeTriangles(r.U, c.faces), 0);
+  EXPECT_EQ(r.U(moved, 0), 1) << r.U.row(moved);  // back on face x = 1, exactly
+  EXPECT_LT(r.U(moved, 2), 1);
+  for (Eigen::Index v = 0; v < r.U.rows(); ++v) {
+    if (c.locks[v] == 0) continue;
+    int onFace = 0;
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_GE(r.U(v, d), 0);
+      EXPECT_LE(r.U(v, d), 1);
+      onFace += r.U(v, d) == 0 || r.U(v, d) == 1;
+    }
+    EXPECT_GE(onFace, 1) << "boundary vertex " << v << " left the cube's surface: " << r.U.row(v);
+    if (__builtin_popcount(c.locks[v]) >= 2) {  // edges and corners keep their locks
+      for (int d = 0; d < 3; ++d)
+        if ((c.locks[v] >> d) & 1) {
+          EXPECT_EQ(r.U(v, d), c.U(v, d));
+        }
+    }
+  }
+}
+
 TEST(UntangleCube, LocksDefaultToTheCoordinatesOnAFace) {
   const CubeCase c = tangledCube(5);
   UntangleOptions o;

@@ -109,6 +109,14 @@ struct UntangleOptions {
   /// coordinates of cube-face vertices that are exactly 0 or 1 are locked.
   /// A cube-face vertex without a locked coordinate is Error(Input).
   std::vector<std::uint8_t> cubeLocks;
+  /// Cube: a sliding vertex with one locked coordinate (on a face, not on
+  /// an edge or a corner) may cross onto a neighbouring face: it lies at the
+  /// point where the ray from (½,½,½) through its unknown position meets the
+  /// cube's surface (as y/|y| on the sphere). With locks, a vertex that the
+  /// placement put on the wrong side of a cube edge stays there: on spool.off
+  /// (--min-dihedral 15) three vertices of one boundary triangle then slid
+  /// onto one cube edge from two faces and left their tet flat.
+  bool cubeAcrossEdges = false;
   /// Per tet (#T, or empty): the volume each tet should have in the map.
   /// When given, reference tet t is scaled to this volume instead of by the
   /// mapped edge lengths above, so that untangling after the measure-controlled
