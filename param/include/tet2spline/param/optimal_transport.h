@@ -115,7 +115,7 @@ struct OptimalTransportResult {
   std::vector<OtIterationStats> iterationStats;
   double startSeconds = 0;             ///< validation, merging and the diagram of ψ0
   int mergedPoints = 0;                ///< points merged into a coincident one
-  int solverSwitches = 0;              ///< CG tolerance tightenings and switches to CHOLMOD (see the .cpp)
+  int solverSwitches = 0;              ///< CG tolerance tightenings, switches to CHOLMOD and to the relative merit (see the .cpp)
   Status status;                       ///< ok, or why it stopped
 };
 

@@ -157,7 +157,7 @@ struct ParamResult {
     double maxRelativeMassError = 0;
     std::vector<double> stepSizes;
     int mergedPoints = 0;
-    int solverSwitches = 0;             ///< CG tightenings / switches to CHOLMOD (optimal_transport.h)
+    int solverSwitches = 0;             ///< CG tightenings, switches to CHOLMOD and to the relative merit (optimal_transport.h)
     double triangulationSeconds = 0, clippingSeconds = 0, assemblySeconds = 0, linearSolveSeconds = 0;
     std::string linearSolver;
   } ot;
