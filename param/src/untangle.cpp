@@ -148,6 +148,20 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       locks[v] = lock;
       if (options.cubeAcrossEdges && __builtin_popcount(lock) == 1) slide[v] = kCubeRadial;
     }
+  // A radially sliding cube vertex (kCubeRadial) at unknown position y: the
+  // ray from the centre along d = y − c leaves the cube through the face of
+  // the largest |d_axis| = extent, at c + d ½/extent.
+  struct CubeRay {
+    Eigen::Vector3d d;
+    Eigen::Index axis = 0;
+    double extent = 0;
+  };
+  auto cubeRay = [&](const Eigen::Vector3d& y) {
+    CubeRay r;
+    r.d = y - apex.transpose();
+    r.extent = r.d.cwiseAbs().maxCoeff(&r.axis);
+    return r;
+  };
   auto positive = [&](Eigen::Index t) {
     Eigen::Vector3d p[4];
     for (int k = 0; k < 4; ++k) p[k] = W.row(T(t, k)).transpose();
@@ -324,12 +338,10 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         for (int d = 0; d < 3; ++d)
           W(v, d) = (locks[v] >> d) & 1 ? base(static_cast<Eigen::Index>(k), d) : std::clamp(y[d], 0.0, 1.0);
       } else if (slide[v] == kCubeRadial) {  // onto the face that the ray from the centre meets, exactly
-        const Eigen::Vector3d d = y - apex.transpose();
-        Eigen::Index a = 0;
-        const double m = d.cwiseAbs().maxCoeff(&a);
-        if (!(m > 0)) return;  // at the centre: no ray; keep the last position
-        for (int j = 0; j < 3; ++j) W(v, j) = std::clamp(0.5 + 0.5 * d[j] / m, 0.0, 1.0);
-        W(v, a) = d[a] > 0 ? 1 : 0;
+        const CubeRay r = cubeRay(y);
+        if (!(r.extent > 0)) return;  // at the centre: no ray; keep the last position
+        for (int j = 0; j < 3; ++j) W(v, j) = std::clamp(0.5 + 0.5 * r.d[j] / r.extent, 0.0, 1.0);
+        W(v, r.axis) = r.d[r.axis] > 0 ? 1 : 0;
       } else {
         W.row(v) = y.transpose();
       }
@@ -376,14 +388,11 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               const Eigen::Vector3d n = y / len;
               s = (s - n * n.dot(s)) / len;
             } else if (slide[v] == kCubeRadial) {  // chain rule through p(y): ½/|d_a| (I − d e_aᵀ/d_a)
-              const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
-              const Eigen::Vector3d d = y - apex.transpose();
-              Eigen::Index a = 0;
-              const double m = d.cwiseAbs().maxCoeff(&a);
-              if (m > 0) {
-                const double dg = d.dot(s);
-                s *= 0.5 / m;
-                s[a] -= 0.5 / m * dg / d[a];
+              const CubeRay r = cubeRay(unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k)));
+              if (r.extent > 0) {
+                const double dg = r.d.dot(s);
+                s *= 0.5 / r.extent;
+                s[r.axis] -= 0.5 / r.extent * dg / r.d[r.axis];
               } else {
                 s.setZero();
               }
@@ -505,14 +514,12 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         c.C = nrm * nrm.transpose();
         c.M = precond[v] / len * (Eigen::Matrix3d::Identity() - c.C);
       } else if (slide[v] == kCubeRadial) {
-        const Eigen::Vector3d d = y - apex.transpose();
-        Eigen::Index a = 0;
-        const double m = d.cwiseAbs().maxCoeff(&a);
-        if (m > 0) {
-          c.C = d * d.transpose() / d.squaredNorm();  // the ray: p(y) does not change along it
+        const CubeRay r = cubeRay(y);
+        if (r.extent > 0) {
+          c.C = r.d * r.d.transpose() / r.d.squaredNorm();  // the ray: p(y) does not change along it
           Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
-          P.col(a) -= d / d[a];
-          c.M = precond[v] * 0.5 / m * P;
+          P.col(r.axis) -= r.d / r.d[r.axis];
+          c.M = precond[v] * 0.5 / r.extent * P;
         }
       } else if (slide[v] == kCube) {
         for (int d = 0; d < 3; ++d)  // locked, or held at a bound (the gradient's active set)
