@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <random>
 
+#include "param/test_shapes.h"
 #include "test_data.h"
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/ball_map.h"
@@ -94,12 +95,8 @@ TEST(OptimalTransportSlow, HandSitesWithMassesOverEightOrdersConverge) {
   const BallMapResult ball = mapToBall(mesh, ballOptions);
   const Eigen::MatrixX3d y = (0.5 * ball.U.array() + 0.5).matrix();
   Eigen::VectorXd nu = Eigen::VectorXd::Zero(mesh.numVertices());
-  for (Eigen::Index t = 0; t < mesh.numTets(); ++t) {
-    const Eigen::Vector3d a = mesh.V.row(mesh.T(t, 0)), b = mesh.V.row(mesh.T(t, 1)), c = mesh.V.row(mesh.T(t, 2)),
-                          d = mesh.V.row(mesh.T(t, 3));
-    const double volume = (b - a).cross(c - a).dot(d - a) / 6;
-    for (int k = 0; k < 4; ++k) nu[mesh.T(t, k)] += volume / 4;
-  }
+  for (Eigen::Index t = 0; t < mesh.numTets(); ++t)
+    for (int k = 0; k < 4; ++k) nu[mesh.T(t, k)] += t2stest::tetVolume(mesh, t) / 4;
   ASSERT_LT(nu.minCoeff(), 1e-8 * nu.maxCoeff());
   const OptimalTransportResult r = solveOptimalTransport(y, nu, Domain::unitCube());
   std::printf("hand sites: %lld points, %d iterations, error %.3g, switches %d\n", (long long)y.rows(), r.iterations,
