@@ -127,6 +127,67 @@ void tensorGradient(const Layout& L, const std::array<DirectionTable, 3>& T, con
       }
 }
 
+/// J = [x_u x_v x_w] at every Gauss point of element ei, J[ga + ng_u (gb +
+/// ng_v gc)], Pe (nloc × 3) its control points in local order: the sums of
+/// (G · Pe)ᵀ with G from tensorGradient, factorised direction by direction
+/// (contract a, then b, then c: about 6·10³ multiply-adds per element at
+/// degree 3 against 3.4·10⁴ point by point). Measured on homer's fit (16³,
+/// degree 3, 44k points): point by point, tensorGradient and Eigen's
+/// dynamic-size 3×64×3 product took 36% and 47% of the profile, and the fit
+/// 23.4 s; the sums fused per point 8.6 s; per element 4.8 s.
+template <class Controls>
+void elementJacobians(const Layout& L, const std::array<DirectionTable, 3>& T, const std::array<int, 3>& ei,
+                      const Controls& Pe, std::vector<Eigen::Matrix3d>& J) {
+  const int pa = L.deg[0] + 1, pb = L.deg[1] + 1, pc = L.deg[2] + 1;
+  const int na = T[0].ng, nb = T[1].ng, nc = T[2].ng;
+  thread_local std::vector<Eigen::Vector3d> A, B;
+  // A[(k·na + ga)·pb·pc + b + pb·c] = Σ_a N_a^(k)(u_ga) P_abc, k = value, derivative.
+  A.resize(static_cast<size_t>(2 * na * pb * pc));
+  for (int c = 0; c < pc; ++c)
+    for (int b = 0; b < pb; ++b)
+      for (int ga = 0; ga < na; ++ga) {
+        Eigen::Vector3d s0 = Eigen::Vector3d::Zero(), s1 = Eigen::Vector3d::Zero();
+        for (int a = 0; a < pa; ++a) {
+          const Eigen::Vector3d p = Pe.row(a + pa * (b + pb * c)).transpose();
+          s0 += T[0].der(ei[0], ga, 0, a) * p;
+          s1 += T[0].der(ei[0], ga, 1, a) * p;
+        }
+        A[static_cast<size_t>(ga * pb * pc + b + pb * c)] = s0;
+        A[static_cast<size_t>((na + ga) * pb * pc + b + pb * c)] = s1;
+      }
+  // B[(k·na·nb + ga + na·gb)·pc + c], k = 0: N_u N_v, 1: N_u' N_v, 2: N_u N_v'.
+  B.resize(static_cast<size_t>(3 * na * nb * pc));
+  for (int c = 0; c < pc; ++c)
+    for (int gb = 0; gb < nb; ++gb)
+      for (int ga = 0; ga < na; ++ga) {
+        Eigen::Vector3d t0 = Eigen::Vector3d::Zero(), t1 = Eigen::Vector3d::Zero(), t2 = Eigen::Vector3d::Zero();
+        for (int b = 0; b < pb; ++b) {
+          const double Nv = T[1].der(ei[1], gb, 0, b), dNv = T[1].der(ei[1], gb, 1, b);
+          const Eigen::Vector3d& a0 = A[static_cast<size_t>(ga * pb * pc + b + pb * c)];
+          const Eigen::Vector3d& a1 = A[static_cast<size_t>((na + ga) * pb * pc + b + pb * c)];
+          t0 += Nv * a0;
+          t1 += Nv * a1;
+          t2 += dNv * a0;
+        }
+        const int at = ga + na * gb;
+        B[static_cast<size_t>(at * pc + c)] = t0;
+        B[static_cast<size_t>((na * nb + at) * pc + c)] = t1;
+        B[static_cast<size_t>((2 * na * nb + at) * pc + c)] = t2;
+      }
+  J.resize(static_cast<size_t>(na * nb * nc));
+  for (int gc = 0; gc < nc; ++gc)
+    for (int at = 0; at < na * nb; ++at) {
+      Eigen::Matrix3d& j = J[static_cast<size_t>(at + na * nb * gc)];
+      j.setZero();
+      for (int c = 0; c < pc; ++c) {
+        const double Nw = T[2].der(ei[2], gc, 0, c), dNw = T[2].der(ei[2], gc, 1, c);
+        j.col(0) += Nw * B[static_cast<size_t>((na * nb + at) * pc + c)];
+        j.col(1) += Nw * B[static_cast<size_t>((2 * na * nb + at) * pc + c)];
+        j.col(2) += dNw * B[static_cast<size_t>(at * pc + c)];
+      }
+    }
+}
+
 /// det J (and scaled Jacobian) at all Gauss points of all elements.
 struct GaussJacobians {
   std::vector<double> detJ, scaled, omega;  // [e * ngTot + g]
@@ -144,18 +205,18 @@ GaussJacobians gaussJacobians(const BSplineVolume& V, const Layout& L, const std
   const Eigen::MatrixX3d& P = V.controlPoints();
   parallelChunks(threads, ne, [&](long b, long e, int) {
     std::vector<long> idx;
-    Eigen::Matrix3Xd G;
+    std::vector<Eigen::Matrix3d> Js;
     Eigen::MatrixX3d Pe(L.nloc, 3);
     for (long el = b; el < e; ++el) {
       L.localControls(el, idx);
       for (int l = 0; l < L.nloc; ++l) Pe.row(l) = P.row(idx[l]);
       const auto ei = L.elementIndex(el);
+      elementJacobians(L, T, ei, Pe, Js);
       int g = 0;
       for (int gc = 0; gc < T[2].ng; ++gc)
         for (int gb = 0; gb < T[1].ng; ++gb)
           for (int ga = 0; ga < T[0].ng; ++ga, ++g) {
-            tensorGradient(L, T, ei, ga, gb, gc, G);
-            const Eigen::Matrix3d J = (G * Pe).transpose();  // columns x_u x_v x_w
+            const Eigen::Matrix3d& J = Js[static_cast<size_t>(g)];  // columns x_u x_v x_w
             const double d = J.determinant();
             const double den = J.col(0).norm() * J.col(1).norm() * J.col(2).norm();
             const size_t at = static_cast<size_t>(el * out.ngTot + g);
@@ -566,9 +627,8 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
     const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> P(P_.data(), nc, 3);
     std::vector<double> part(static_cast<size_t>(threads_), std::numeric_limits<double>::infinity());
     parallelChunks(threads_, static_cast<long>(pen_.size()), [&](long pb, long pe, int t) {
-      Eigen::Matrix3Xd G;
       for (long k = pb; k < pe; ++k)
-        forEachPoint(pen_[static_cast<size_t>(k)], P, G, [&](const Eigen::Matrix3d& J, double) {
+        forEachPoint(pen_[static_cast<size_t>(k)], P, [&](const Eigen::Matrix3d& J, double, int, int, int) {
           part[static_cast<size_t>(t)] = std::min(part[static_cast<size_t>(t)], J.determinant());
         });
     });
@@ -590,12 +650,13 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
       Eigen::Matrix3Xd G;
       for (long k = pb; k < pe; ++k) {
         const ElementPenalty& q = pen_[static_cast<size_t>(k)];
-        forEachPoint(q, P, G, [&](const Eigen::Matrix3d& J, double scale) {
+        forEachPoint(q, P, [&](const Eigen::Matrix3d& J, double scale, int ga, int gb, int gc) {
           const double d = J.determinant();
           if (d >= tau_) return;
           const double r = scale * (tau_ - d);
           partCost[static_cast<size_t>(t)] += 0.5 * r * r;
           if (!gradient) return;
+          tensorGradient(L_, T_, q.ei, ga, gb, gc, G);
           const Eigen::Vector3d cu = J.col(1).cross(J.col(2)), cv = J.col(2).cross(J.col(0)), cw = J.col(0).cross(J.col(1));
           for (size_t l = 0; l < q.idx.size(); ++l) {
             const Eigen::Index li = static_cast<Eigen::Index>(l);
@@ -622,21 +683,20 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
   const Eigen::SparseMatrix<double>& A_;
   const Eigen::MatrixX3d& b_;
   std::vector<double>& P_;
-  /// Calls f(J, scale) at each penalised Gauss point of q, with G holding
-  /// that point's basis gradients.
+  /// Calls f(J, scale, ga, gb, gc) at each penalised Gauss point (ga, gb, gc) of q.
   template <class F>
   void forEachPoint(const ElementPenalty& q, const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& P,
-                    Eigen::Matrix3Xd& G, F&& f) const {
+                    F&& f) const {
     Eigen::Matrix<double, Eigen::Dynamic, 3> Pe(static_cast<Eigen::Index>(q.idx.size()), 3);
     for (size_t l = 0; l < q.idx.size(); ++l) Pe.row(static_cast<Eigen::Index>(l)) = P.row(q.idx[l]);
+    thread_local std::vector<Eigen::Matrix3d> J;
+    elementJacobians(L_, T_, q.ei, Pe, J);
     size_t g = 0;
     for (int gc = 0; gc < T_[2].ng; ++gc)
       for (int gb = 0; gb < T_[1].ng; ++gb)
         for (int ga = 0; ga < T_[0].ng; ++ga, ++g) {
           if (!(q.scale[g] > 0)) continue;
-          tensorGradient(L_, T_, q.ei, ga, gb, gc, G);
-          const Eigen::Matrix3d J = Pe.transpose() * G.transpose();
-          f(J, q.scale[g]);
+          f(J[g], q.scale[g], ga, gb, gc);
         }
   }
 

@@ -3,6 +3,7 @@
 // refinement to a target error, input errors.
 #include <gtest/gtest.h>
 #include <tet2spline/param/error.h>
+#include <tet2spline/spline/bspline_basis.h>
 #include <tet2spline/spline/fit.h>
 
 #include <Eigen/LU>
@@ -44,6 +45,53 @@ double maxDeviation(const BSplineVolume& V, const Eigen::MatrixX3d& U, const Eig
 }
 
 }  // namespace
+
+// jacobianQuality (whose per-element sum factorisation also serves the
+// validity stage) against BSplineVolume's own Jacobian at the same Gauss
+// points: degrees 2, 3, 1, non-uniform knots, a curved and twisted map.
+TEST(Fit, JacobianQualityAgreesWithTheVolumesJacobian) {
+  const std::array<KnotVector, 3> K{KnotVector::fromBreakpoints(2, {0, 0.1, 0.45, 0.5, 1}),
+                                    KnotVector::fromBreakpoints(3, {0, 0.3, 0.35, 0.8, 1}),
+                                    KnotVector::fromBreakpoints(1, {0, 0.6, 0.7, 1})};
+  const Eigen::VectorXd gu = K[0].greville(), gv = K[1].greville(), gw = K[2].greville();
+  Eigen::MatrixX3d P(gu.size() * gv.size() * gw.size(), 3);
+  Eigen::Index at = 0;
+  for (Eigen::Index k = 0; k < gw.size(); ++k)
+    for (Eigen::Index j = 0; j < gv.size(); ++j)
+      for (Eigen::Index i = 0; i < gu.size(); ++i) {
+        const double a = gu[i], b = gv[j], c = gw[k], twist = 0.6 * c;
+        P.row(at++) << (1 + a) * std::cos(twist + b), (1 + a) * std::sin(twist + b), 2 * c + 0.3 * a * b;
+      }
+  const BSplineVolume V(K[0], K[1], K[2], P);
+  double minDet = std::numeric_limits<double>::infinity(), minScaled = minDet, integral = 0;
+  long points = 0, nonPositive = 0;
+  std::array<std::vector<std::pair<double, double>>, 3> nodes;  // (parameter, weight) per direction
+  for (int d = 0; d < 3; ++d) {
+    const std::vector<double> br = K[d].breakpoints();
+    for (size_t e = 0; e + 1 < br.size(); ++e) {
+      const GaussRule r = gaussLegendre(K[d].degree() + 1, br[e], br[e + 1]);
+      for (Eigen::Index g = 0; g < r.points.size(); ++g) nodes[d].push_back({r.points[g], r.weights[g]});
+    }
+  }
+  for (const auto& [w, ww] : nodes[2])
+    for (const auto& [v, wv] : nodes[1])
+      for (const auto& [u, wu] : nodes[0]) {
+        const Eigen::Vector3d x(u, v, w);
+        const double det = V.detJacobian(x);
+        minDet = std::min(minDet, det);
+        minScaled = std::min(minScaled, V.scaledJacobian(x));
+        integral += wu * wv * ww * det;
+        nonPositive += det <= 0;
+        ++points;
+      }
+  ASSERT_GT(minDet, 0);  // the map is valid: the test compares values, not signs
+  const JacobianQuality q = jacobianQuality(V);
+  EXPECT_EQ(q.gaussPoints, points);
+  EXPECT_EQ(q.nonPositive, nonPositive);
+  EXPECT_NEAR(q.minDetJ, minDet, 1e-12 * std::abs(minDet));
+  EXPECT_NEAR(q.minScaledJacobian, minScaled, 1e-12);
+  EXPECT_NEAR(q.meanDetJ, integral, 1e-12 * integral);  // parameter box [0,1]^3
+}
 
 TEST(Fit, ReproducesTrilinearAndTricubicMaps) {
   const Eigen::MatrixX3d U = randomParameters(20000, 1);
