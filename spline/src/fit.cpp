@@ -135,9 +135,8 @@ void tensorGradient(const Layout& L, const std::array<DirectionTable, 3>& T, con
 /// degree 3, 44k points): point by point, tensorGradient and Eigen's
 /// dynamic-size 3×64×3 product took 36% and 47% of the profile, and the fit
 /// 23.4 s; the sums fused per point 8.6 s; per element 4.8 s.
-template <class Controls>
 void elementJacobians(const Layout& L, const std::array<DirectionTable, 3>& T, const std::array<int, 3>& ei,
-                      const Controls& Pe, std::vector<Eigen::Matrix3d>& J) {
+                      const Eigen::MatrixX3d& Pe, std::vector<Eigen::Matrix3d>& J) {
   const int pa = L.deg[0] + 1, pb = L.deg[1] + 1, pc = L.deg[2] + 1;
   const int na = T[0].ng, nb = T[1].ng, nc = T[2].ng;
   thread_local std::vector<Eigen::Vector3d> A, B;
@@ -687,7 +686,7 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
   template <class F>
   void forEachPoint(const ElementPenalty& q, const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& P,
                     F&& f) const {
-    Eigen::Matrix<double, Eigen::Dynamic, 3> Pe(static_cast<Eigen::Index>(q.idx.size()), 3);
+    Eigen::MatrixX3d Pe(static_cast<Eigen::Index>(q.idx.size()), 3);
     for (size_t l = 0; l < q.idx.size(); ++l) Pe.row(static_cast<Eigen::Index>(l)) = P.row(q.idx[l]);
     thread_local std::vector<Eigen::Matrix3d> J;
     elementJacobians(L_, T_, q.ei, Pe, J);

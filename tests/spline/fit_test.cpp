@@ -7,8 +7,12 @@
 #include <tet2spline/spline/fit.h>
 
 #include <Eigen/LU>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <random>
+#include <utility>
+#include <vector>
 
 using namespace tet2spline;
 using namespace tet2spline::spline;
