@@ -382,13 +382,13 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
             Eigen::Vector3d s = Eigen::Vector3d::Zero();
             for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e)
               s += tetGrad[static_cast<size_t>(activeIndex[vt.corner[e] / 4])].col(vt.corner[e] % 4);
+            const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
             if (slide[v] == kSphere) {  // chain rule through y ↦ y/|y|
-              const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
               const double len = y.norm();
               const Eigen::Vector3d n = y / len;
               s = (s - n * n.dot(s)) / len;
             } else if (slide[v] == kCubeRadial) {  // chain rule through p(y): ½/|d_a| (I − d e_aᵀ/d_a)
-              const CubeRay r = cubeRay(unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k)));
+              const CubeRay r = cubeRay(y);
               if (r.extent > 0) {
                 const double dg = r.d.dot(s);
                 s *= 0.5 / r.extent;
@@ -397,7 +397,6 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
                 s.setZero();
               }
             } else if (slide[v] == kCube) {  // chain rule through the lock and the clamp
-              const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
               // Beyond a bound the clamp makes E flat in that coordinate; at
               // a bound that descent would push further out its derivative
               // is one-sided, so it is held there (active set, as in

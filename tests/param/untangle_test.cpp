@@ -114,6 +114,15 @@ CubeCase tangledCube(int n) {
   return c;
 }
 
+// Untangling options for a CubeCase: its faces slide on the cube with its locks.
+UntangleOptions cubeOptions(const CubeCase& c, UntangleMethod method) {
+  UntangleOptions o;
+  o.method = method;
+  o.cubeFaces = c.faces;
+  o.cubeLocks = c.locks;
+  return o;
+}
+
 int flippedCubeTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F) {
   const Eigen::Vector3d centre(0.5, 0.5, 0.5);
   int flipped = 0;
@@ -134,10 +143,7 @@ TEST_P(UntangleCubeMethods, BoundarySlidesOnTheCubeAndNothingFlips) {
   const CubeCase c = tangledCube(6);
   ASSERT_GT(flippedCubeTriangles(c.U, c.faces), 0);
   ASSERT_GT(countNonPositiveTets(c.U, c.mesh.T), 0);
-  UntangleOptions o;
-  o.method = GetParam();
-  o.cubeFaces = c.faces;
-  o.cubeLocks = c.locks;
+  UntangleOptions o = cubeOptions(c, GetParam());
   const std::vector<bool> none(static_cast<size_t>(c.U.rows()), false);
   const UntangleResult r = untangle(c.mesh.V, c.mesh.T, c.U, none, o);
   EXPECT_TRUE(r.status.ok) << r.status.message;
@@ -178,10 +184,7 @@ TEST_P(UntangleCubeMethods, AVertexOnTheWrongFaceCrossesTheEdge) {
   c.U(moved, 2) = 1;
   c.locks[moved] = 4;
   ASSERT_GT(flippedCubeTriangles(c.U, c.faces), 0);
-  UntangleOptions o;
-  o.method = GetParam();
-  o.cubeFaces = c.faces;
-  o.cubeLocks = c.locks;
+  UntangleOptions o = cubeOptions(c, GetParam());
   const std::vector<bool> none(static_cast<size_t>(c.U.rows()), false);
   const UntangleResult locked = untangle(c.mesh.V, c.mesh.T, c.U, none, o);
   EXPECT_GT(locked.invertedAfter + locked.flippedBoundaryTriangles, 0) << "the locked vertex could be repaired";
