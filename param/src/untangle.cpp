@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <limits>
@@ -81,6 +82,164 @@ int lbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
     }
   }
   return it;
+}
+
+// Largest t with A z + b >= t·e_tets, t <= 1, inside a box: one vertex's
+// max-min problem (see maxMinSweeps). Rows of `a` are the constraints
+// a·z + b > 0 over z = (d, t) with d the free coordinates' displacement;
+// z starts strictly feasible. Log-barrier path following, Newton inside.
+// Returns z.
+Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, Eigen::VectorXd z) {
+  const Eigen::Index n = z.size(), m = a.rows();
+  auto slack = [&](const Eigen::VectorXd& y) -> Eigen::VectorXd { return a * y + b; };
+  auto phi = [&](const Eigen::VectorXd& y, double tau, bool& ok) {
+    const Eigen::VectorXd r = slack(y);
+    ok = (r.array() > 0).all();
+    return ok ? -tau * y(n - 1) - r.array().log().sum() : std::numeric_limits<double>::infinity();
+  };
+  for (double tau = 1; tau < 1e9 && static_cast<double>(m) / tau > 1e-7; tau *= 8) {
+    for (int it = 0; it < 40; ++it) {
+      const Eigen::VectorXd r = slack(z);
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+      g(n - 1) = -tau;
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
+      for (Eigen::Index j = 0; j < m; ++j) {
+        g -= a.row(j).transpose() / r(j);
+        H += a.row(j).transpose() * a.row(j) / (r(j) * r(j));
+      }
+      const Eigen::VectorXd dz = -H.ldlt().solve(g);
+      const double decrement = -g.dot(dz);
+      if (!dz.allFinite() || !(decrement > 1e-12)) break;
+      bool ok = false;
+      const double f0 = phi(z, tau, ok);
+      double step = 1;
+      for (; step > 1e-12; step *= 0.5) {
+        const double f = phi(z + step * dz, tau, ok);
+        if (ok && f <= f0 - 0.25 * step * decrement) break;
+      }
+      if (!(step > 1e-12)) break;
+      z += step * dz;
+    }
+  }
+  return z;
+}
+
+// Local repair by max-min volume (Freitag and Plassmann 2000, "Local
+// optimization-based untangling algorithms"): each movable vertex of an
+// inverted tet goes where the least normalised volume of its star is
+// largest, the other vertices held; its star's worst tet never gets worse,
+// tets outside its star do not change, so inversions never increase.
+// `movable` per vertex: bits of the coordinates that may change (0 = held),
+// positions kept in [lo, hi]. Volumes are normalised by `scale` (per tet).
+// Returns the number of vertices moved.
+int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::VertexTets& vt,
+                 const std::vector<std::uint8_t>& movable, const Eigen::VectorXd& scale, double lo, double hi,
+                 int maxSweeps) {
+  const Eigen::Index ntx = T.rows();
+  auto volume = [&](Eigen::Index t) {
+    const Eigen::Vector3d p0 = W.row(T(t, 0)), p1 = W.row(T(t, 1)), p2 = W.row(T(t, 2)), p3 = W.row(T(t, 3));
+    return (p1 - p0).cross(p2 - p0).dot(p3 - p0) / 6;
+  };
+  auto positive = [&](Eigen::Index t) {
+    Eigen::Vector3d p[4];
+    for (int k = 0; k < 4; ++k) p[k] = W.row(T(t, k)).transpose();
+    return orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) > 0;
+  };
+  int moved = 0, rings = 0, stalled = 0;
+  double bestWorst = -std::numeric_limits<double>::infinity();
+  int bestCount = std::numeric_limits<int>::max();
+  for (int sweep = 0; sweep < maxSweeps; ++sweep) {
+    std::vector<char> mark(static_cast<size_t>(W.rows()), 0);
+    int count = 0;
+    double globalWorst = std::numeric_limits<double>::infinity();
+    for (Eigen::Index t = 0; t < ntx; ++t)
+      if (!positive(t)) {
+        ++count;
+        globalWorst = std::min(globalWorst, volume(t) / scale(t));
+        for (int k = 0; k < 4; ++k) mark[static_cast<size_t>(T(t, k))] = 1;
+      }
+    if (count == 0) break;
+    // Progress: fewer inversions or a better worst one; else widen the set.
+    if (count < bestCount || globalWorst > bestWorst + 1e-3 * std::abs(bestWorst)) {
+      stalled = 0;
+    } else if (++stalled >= 3) {
+      if (rings >= 4) break;
+      ++rings, stalled = 0;
+    }
+    bestCount = std::min(bestCount, count);
+    bestWorst = std::max(bestWorst, globalWorst);
+    for (int r = 0; r < rings; ++r) {
+      std::vector<char> next = mark;
+      for (Eigen::Index v = 0; v < W.rows(); ++v)
+        if (mark[static_cast<size_t>(v)])
+          for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e)
+            for (int k = 0; k < 4; ++k) next[static_cast<size_t>(T(vt.corner[static_cast<size_t>(e)] / 4, k))] = 1;
+      mark.swap(next);
+    }
+    std::vector<int> verts;
+    for (Eigen::Index v = 0; v < W.rows(); ++v)
+      if (mark[static_cast<size_t>(v)] && movable[static_cast<size_t>(v)]) verts.push_back(static_cast<int>(v));
+    int movedNow = 0;
+    for (int v : verts) {
+      const std::uint8_t bits = movable[static_cast<size_t>(v)];
+      std::vector<int> dims;
+      for (int d = 0; d < 3; ++d)
+        if ((bits >> d) & 1) dims.push_back(d);
+      const auto nd = static_cast<Eigen::Index>(dims.size());
+      const int first = vt.offset[static_cast<size_t>(v)], last = vt.offset[static_cast<size_t>(v) + 1];
+      const Eigen::Index m = (last - first) + 1 + 2 * nd;
+      Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, nd + 1);
+      Eigen::VectorXd b(m);
+      const Eigen::Vector3d p0 = W.row(v);
+      double worst = std::numeric_limits<double>::infinity();
+      Eigen::Index row = 0;
+      for (int e = first; e < last; ++e) {
+        const int t = vt.corner[static_cast<size_t>(e)] / 4, k = vt.corner[static_cast<size_t>(e)] % 4;
+        // vol = (−1)^k (a − p)·n / 6 with (a, b, c) the next three corners
+        // (a cyclic shift of four is odd), n = (b − a) × (c − a).
+        const Eigen::Vector3d pa = W.row(T(t, (k + 1) % 4)), pb = W.row(T(t, (k + 2) % 4)), pc = W.row(T(t, (k + 3) % 4));
+        const Eigen::Vector3d grad = -((k % 2) ? -1.0 : 1.0) * (pb - pa).cross(pc - pa) / 6;
+        const double s = scale(t);
+        const double v0 = volume(t) / s;
+        for (Eigen::Index i = 0; i < nd; ++i) a(row, i) = grad(dims[static_cast<size_t>(i)]) / s;
+        a(row, nd) = -1;
+        b(row) = v0;
+        worst = std::min(worst, v0);
+        ++row;
+      }
+      a(row, nd) = -1, b(row) = 1, ++row;  // t <= 1
+      bool inside = true;
+      for (Eigen::Index i = 0; i < nd; ++i) {
+        const double x = p0(dims[static_cast<size_t>(i)]);
+        inside = inside && x > lo && x < hi;
+        a(row, i) = 1, b(row) = x - lo, ++row;
+        a(row, i) = -1, b(row) = hi - x, ++row;
+      }
+      if (!inside || nd == 0 || !(worst < 1)) continue;
+      if (rings > 0 && worst > 0.5) continue;  // a well-shaped star around: leave it
+      Eigen::VectorXd z = Eigen::VectorXd::Zero(nd + 1);
+      z(nd) = worst - 1;
+      z = maxMinBarrier(a, b, z);
+      if (!(z(nd) > worst)) continue;
+      Eigen::Vector3d p = p0;
+      for (Eigen::Index i = 0; i < nd; ++i) p(dims[static_cast<size_t>(i)]) += z(i);
+      W.row(v) = p.transpose();
+      double after = std::numeric_limits<double>::infinity();
+      for (int e = first; e < last; ++e) {
+        const int t = vt.corner[static_cast<size_t>(e)] / 4;
+        after = std::min(after, volume(t) / scale(t));
+      }
+      if (after > worst) {
+        ++movedNow;
+      } else {
+        W.row(v) = p0.transpose();
+      }
+    }
+    moved += movedNow;
+    if (movedNow == 0 && rings >= 4) break;
+    if (movedNow == 0) ++rings, stalled = 0;
+  }
+  return moved;
 }
 
 }  // namespace
@@ -691,6 +850,47 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     // Grow the region; once it would hold (nearly) everything, free it all.
     rings = rings == 0 ? 1 : 2 * rings;
     if (static_cast<Eigen::Index>(freeVerts.size()) * 2 > nv) rings = -1;
+  }
+  // Last resort: local max-min moves, then the energy again from there.
+  if ((result.invertedAfter > 0 || result.flippedBoundaryTriangles > 0) && result.status.ok && !options.relax &&
+      options.localRepairSweeps > 0) {
+    W.topRows(nv) = result.U;
+    std::vector<std::uint8_t> movable(static_cast<size_t>(nvx), 0);
+    for (Eigen::Index v = 0; v < nv; ++v) {
+      if (fixed[v]) continue;
+      if (slide[v] == kInterior) movable[v] = 7;
+      else if (slide[v] == kCube || slide[v] == kCubeRadial) movable[v] = static_cast<std::uint8_t>(7u & ~locks[v]);
+    }
+    Eigen::VectorXd tetScale(ntx);
+    const double meanTarget = options.targetVolumes.size() == nt && nt > 0 ? options.targetVolumes.mean() : 0;
+    for (Eigen::Index t = 0; t < ntx; ++t) {
+      double s = 0;
+      if (t < nt) {
+        s = options.targetVolumes.size() == nt ? options.targetVolumes(t) : 0;
+        if (!(s > 0)) {  // the reference tet's volume at the map's scale: |J| = 1
+          const double sc = 1.0 / std::cbrt(std::abs(grad[static_cast<size_t>(t)].topRightCorner<3, 3>().determinant()));
+          s = sc * sc * sc / 6;
+        }
+      } else {  // a cone: its triangle's area times the apex height / 3
+        const Eigen::Vector3d pa = W.row(T(t, 1)), pb = W.row(T(t, 2)), pc = W.row(T(t, 3));
+        s = 0.5 * (pb - pa).cross(pc - pa).norm() * apexHeight / 3;
+      }
+      tetScale(t) = s > 0 && std::isfinite(s) ? s : (meanTarget > 0 ? meanTarget : 1.0);
+    }
+    const auto repairStart = std::chrono::steady_clock::now();
+    const int moved = maxMinSweeps(W, T, vt, movable, tetScale, onCube ? 0.0 : -1.0, 1.0, options.localRepairSweeps);
+    const int inverted = moved > 0 ? countNonPositiveTets(W.topRows(nv), T0) : result.invertedAfter;
+    const int flipped = moved > 0 ? countBad(nt, ntx) : result.flippedBoundaryTriangles;
+    if (options.progress)
+      options.progress(-1, "untangle: local max-min repair: " + std::to_string(moved) + " vertex moves, " +
+                               std::to_string(result.invertedAfter + result.flippedBoundaryTriangles) + " -> " +
+                               std::to_string(inverted + flipped) + " inverted tets and flipped triangles, " +
+                               std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - repairStart).count()) + " s");
+    if (inverted + flipped < result.invertedAfter + result.flippedBoundaryTriangles) {
+      result.U = W.topRows(nv);
+      result.invertedAfter = inverted;
+      result.flippedBoundaryTriangles = flipped;
+    }
   }
   // Never hand back something worse than what came in.
   if (result.invertedAfter + result.flippedBoundaryTriangles > result.invertedBefore + flippedBefore) {

@@ -423,3 +423,66 @@ TEST_P(UntangleMethods, BoundarySlidesOnTheSphereAndNothingFlips) {
     EXPECT_EQ(r.lbfgsIterations, 0);
   }
 }
+
+// ---- Local max-min repair (the last resort after the energy) ----
+
+// With the energy switched off (no ε rounds), the local max-min moves alone
+// repair interior vertices pushed through their neighbours; without them the
+// same input stays tangled. Fixed vertices keep their bits.
+TEST(UntangleLocalRepair, MaxMinMovesRepairInteriorVertices) {
+  const TetMesh m = t2stest::cubeGrid(6);
+  const auto fixed = boundaryMask(m);
+  Eigen::MatrixX3d U = m.V;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> jitter(-0.25, 0.25);  // cell size 1/3
+  int pushed = 0;
+  for (Eigen::Index v = 0; v < U.rows(); ++v)
+    if (!fixed[v] && v % 5 == 0) {
+      for (int d = 0; d < 3; ++d) U(v, d) += jitter(rng);
+      ++pushed;
+    }
+  const int before = countNonPositiveTets(U, m.T);
+  ASSERT_GT(pushed, 5);
+  ASSERT_GT(before, 10);
+  UntangleOptions off;
+  off.maxOuterIterations = 0;
+  off.localRepairSweeps = 0;
+  EXPECT_EQ(untangle(m.V, m.T, U, fixed, off).invertedAfter, before);
+  UntangleOptions repair = off;
+  repair.localRepairSweeps = 100;
+  const UntangleResult r = untangle(m.V, m.T, U, fixed, repair);
+  EXPECT_EQ(r.invertedAfter, 0) << r.status.message;
+  EXPECT_EQ(countNonPositiveTets(r.U, m.T), 0);
+  EXPECT_TRUE(r.status.ok);
+  for (Eigen::Index v = 0; v < U.rows(); ++v)
+    if (fixed[v]) {
+      EXPECT_EQ(r.U.row(v), U.row(v));
+    }
+}
+
+// On the cube, face vertices move only within their face: the locked
+// coordinate keeps its bits, the others stay in [0, 1], and no boundary
+// triangle is left flipped.
+TEST(UntangleLocalRepair, MaxMinMovesKeepFaceVerticesOnTheirFaces) {
+  CubeCase c = tangledCube(5);
+  const int before = countNonPositiveTets(c.U, c.mesh.T) + flippedCubeTriangles(c.U, c.faces);
+  ASSERT_GT(before, 10);
+  UntangleOptions o = cubeOptions(c, UntangleMethod::Lbfgs);
+  o.maxOuterIterations = 0;
+  o.localRepairSweeps = 0;
+  const UntangleResult none = untangle(c.mesh.V, c.mesh.T, c.U, std::vector<bool>(c.U.rows(), false), o);
+  EXPECT_GT(none.invertedAfter + none.flippedBoundaryTriangles, 0);
+  o.localRepairSweeps = 100;
+  const UntangleResult r = untangle(c.mesh.V, c.mesh.T, c.U, std::vector<bool>(c.U.rows(), false), o);
+  EXPECT_EQ(r.invertedAfter, 0) << r.status.message;
+  EXPECT_EQ(flippedCubeTriangles(r.U, c.faces), 0);
+  for (Eigen::Index v = 0; v < c.U.rows(); ++v)
+    for (int d = 0; d < 3; ++d) {
+      if ((c.locks[v] >> d) & 1) {
+        EXPECT_EQ(r.U(v, d), c.U(v, d));
+      } else {
+        EXPECT_GE(r.U(v, d), 0.0);
+        EXPECT_LE(r.U(v, d), 1.0);
+      }
+    }
+}

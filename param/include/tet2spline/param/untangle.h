@@ -128,6 +128,9 @@ struct UntangleOptions {
   /// towards the reference shapes and targetVolumes without ever inverting
   /// a tet (the barrier keeps det J > 0).
   bool relax = false;
+  /// When the energy leaves inversions: sweeps of local max-min moves over
+  /// the vertices of inverted tets (see untangle.cpp, maxMinSweeps); 0 = none.
+  int localRepairSweeps = 100;
   ProgressCallback progress = {};  ///< called once per ε update; false stops
 };
 
