@@ -124,14 +124,20 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
   return z;
 }
 
-// Local repair by max-min volume (Freitag and Plassmann 2000, "Local
-// optimization-based untangling algorithms"): each movable vertex of an
-// inverted tet goes where the least normalised volume of its star is
-// largest, the other vertices held; its star's worst tet never gets worse,
-// tets outside its star do not change, so inversions never increase.
+// Local repair by max-min volume (Freitag and Plassmann, "Local
+// optimization-based simplicial mesh untangling and improvement", IJNME
+// 2000): each movable vertex of an inverted tet goes where the least
+// normalised volume of its star is largest, the other vertices held. Its
+// star's worst tet never gets worse and tets outside its star do not change,
+// but a star's other tets may drop below zero (still above the old worst):
+// the count of inverted tets can grow, so the caller keeps the result only
+// when it drops. While a sweep neither lowers the count nor raises the
+// worst volume (three times), or moves nothing, the vertices within one more
+// ring of the inverted tets join (at most four rings; those with a
+// well-shaped star are left alone).
 // `movable` per vertex: bits of the coordinates that may change (0 = held),
 // positions kept in [lo, hi]. Volumes are normalised by `scale` (per tet).
-// Returns the number of vertices moved.
+// Returns the number of vertex moves.
 int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::VertexTets& vt,
                  const std::vector<std::uint8_t>& movable, const Eigen::VectorXd& scale, double lo, double hi,
                  int maxSweeps) {
