@@ -857,9 +857,14 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     rings = rings == 0 ? 1 : 2 * rings;
     if (static_cast<Eigen::Index>(freeVerts.size()) * 2 > nv) rings = -1;
   }
-  // Last resort: local max-min moves, then the energy again from there.
-  if ((result.invertedAfter > 0 || result.flippedBoundaryTriangles > 0) && result.status.ok && !options.relax &&
-      options.localRepairSweeps > 0) {
+  // Last resort: local max-min moves over what the energy left, when that is
+  // a few tets (at most localRepairFraction of them). Measured: the ball
+  // maps of hand (25 left) and spool (1) repaired in 0.06 s and 0.004 s;
+  // on bracket.step's cube map (33746 left of 300k) the moves took 74 s for
+  // 9921 left, and the run failed all the same.
+  const int left = result.invertedAfter + result.flippedBoundaryTriangles;
+  if (left > 0 && result.status.ok && !options.relax && options.localRepairSweeps > 0 &&
+      left <= std::max(100.0, options.localRepairFraction * static_cast<double>(nt))) {
     W.topRows(nv) = result.U;
     std::vector<std::uint8_t> movable(static_cast<size_t>(nvx), 0);
     for (Eigen::Index v = 0; v < nv; ++v) {

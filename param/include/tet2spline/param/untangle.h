@@ -130,7 +130,11 @@ struct UntangleOptions {
   bool relax = false;
   /// When the energy leaves inversions: sweeps of local max-min moves over
   /// the vertices of inverted tets (see untangle.cpp, maxMinSweeps); 0 = none.
+  /// Only when at most max(100, localRepairFraction · #tets) tets are left
+  /// inverted or boundary triangles flipped (many more: the run fails anyway,
+  /// and the moves would take minutes).
   int localRepairSweeps = 100;
+  double localRepairFraction = 0.02;
   ProgressCallback progress = {};  ///< called once per ε update; false stops
 };
 
