@@ -444,8 +444,9 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     // With transport, the ball map only places the sites: the composition
     // moves every vertex to its cell's centroid and the final untangling
     // repairs whatever that inverts (thousands of tets on fandisk), so a few
-    // tets the ball map's untangling could not repair (spool: one, det
-    // −10⁻⁶, no single vertex can fix it) do not make the result invalid;
+    // tets the ball map's untangling could not repair (before its local
+    // max-min repair, untangle.h: spool one, det −10⁻⁶) do not make the
+    // result invalid;
     // the final map is checked on its own. Without transport the ball map is
     // the result, and it must be bijective.
     const bool onlyInversionsLeft = !ball.stopped && ball.ball.invertedTets > 0 && ball.sphere.flippedTriangles == 0 &&
