@@ -8,8 +8,8 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <deque>
 #include <limits>
@@ -892,11 +892,15 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     const int moved = maxMinSweeps(W, T, vt, movable, tetScale, onCube ? 0.0 : -1.0, 1.0, options.localRepairSweeps);
     const int inverted = moved > 0 ? countNonPositiveTets(W.topRows(nv), T0) : result.invertedAfter;
     const int flipped = moved > 0 ? countBad(nt, ntx) : result.flippedBoundaryTriangles;
-    if (options.progress)
-      options.progress(-1, "untangle: local max-min repair: " + std::to_string(moved) + " vertex moves, " +
-                               std::to_string(result.invertedAfter + result.flippedBoundaryTriangles) + " -> " +
-                               std::to_string(inverted + flipped) + " inverted tets and flipped triangles, " +
-                               std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - repairStart).count()) + " s");
+    if (options.progress &&
+        !options.progress(-1, "untangle: local max-min repair: " + std::to_string(moved) + " vertex moves, " +
+                                  std::to_string(left) + " -> " + std::to_string(inverted + flipped) +
+                                  " inverted tets and flipped triangles, " +
+                                  std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - repairStart).count()) +
+                                  " s")) {
+      result.status = Status::failure("untangle: stopped by the progress callback");
+      result.stopped = true;
+    }
     if (inverted + flipped < result.invertedAfter + result.flippedBoundaryTriangles) {
       result.U = W.topRows(nv);
       result.invertedAfter = inverted;
