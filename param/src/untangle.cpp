@@ -84,6 +84,28 @@ int lbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
   return it;
 }
 
+// Whether tet t of T is positively oriented at positions W, exactly.
+bool positiveTet(const Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, Eigen::Index t) {
+  Eigen::Vector3d p[4];
+  for (int k = 0; k < 4; ++k) p[k] = W.row(T(t, k)).transpose();
+  return orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) > 0;
+}
+
+// Adds `rings` vertex rings to `mark`, growing from the first `sources`
+// vertices only (not from the cones' apex, which touches every boundary
+// vertex).
+void growRings(std::vector<char>& mark, const Eigen::MatrixX4i& T, const detail::VertexTets& vt, Eigen::Index sources,
+               int rings) {
+  for (int r = 0; r < rings; ++r) {
+    std::vector<char> next = mark;
+    for (Eigen::Index v = 0; v < sources; ++v)
+      if (mark[static_cast<size_t>(v)])
+        for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e)
+          for (int k = 0; k < 4; ++k) next[static_cast<size_t>(T(vt.corner[static_cast<size_t>(e)] / 4, k))] = 1;
+    mark.swap(next);
+  }
+}
+
 // Largest t with A z + b >= t·e_tets, t <= 1, inside a box: one vertex's
 // max-min problem (see maxMinSweeps). Rows of `a` are the constraints
 // a·z + b > 0 over z = (d, t) with d the free coordinates' displacement;
@@ -146,11 +168,7 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
     const Eigen::Vector3d p0 = W.row(T(t, 0)), p1 = W.row(T(t, 1)), p2 = W.row(T(t, 2)), p3 = W.row(T(t, 3));
     return (p1 - p0).cross(p2 - p0).dot(p3 - p0) / 6;
   };
-  auto positive = [&](Eigen::Index t) {
-    Eigen::Vector3d p[4];
-    for (int k = 0; k < 4; ++k) p[k] = W.row(T(t, k)).transpose();
-    return orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) > 0;
-  };
+  auto positive = [&](Eigen::Index t) { return positiveTet(W, T, t); };
   int moved = 0, rings = 0, stalled = 0;
   double bestWorst = -std::numeric_limits<double>::infinity();
   int bestCount = std::numeric_limits<int>::max();
@@ -174,14 +192,7 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
     }
     bestCount = std::min(bestCount, count);
     bestWorst = std::max(bestWorst, globalWorst);
-    for (int r = 0; r < rings; ++r) {
-      std::vector<char> next = mark;
-      for (Eigen::Index v = 0; v < W.rows(); ++v)
-        if (mark[static_cast<size_t>(v)])
-          for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e)
-            for (int k = 0; k < 4; ++k) next[static_cast<size_t>(T(vt.corner[static_cast<size_t>(e)] / 4, k))] = 1;
-      mark.swap(next);
-    }
+    growRings(mark, T, vt, W.rows() - 1, rings);  // the last row is the cones' apex
     std::vector<int> verts;
     for (Eigen::Index v = 0; v < W.rows(); ++v)
       if (mark[static_cast<size_t>(v)] && movable[static_cast<size_t>(v)]) verts.push_back(static_cast<int>(v));
@@ -327,11 +338,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     r.extent = r.d.cwiseAbs().maxCoeff(&r.axis);
     return r;
   };
-  auto positive = [&](Eigen::Index t) {
-    Eigen::Vector3d p[4];
-    for (int k = 0; k < 4; ++k) p[k] = W.row(T(t, k)).transpose();
-    return orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) > 0;
-  };
+  auto positive = [&](Eigen::Index t) { return positiveTet(W, T, t); };
   auto countBad = [&](Eigen::Index from, Eigen::Index to) {
     int bad = 0;
     for (Eigen::Index t = from; t < to; ++t) bad += !positive(t);
@@ -463,14 +470,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       for (Eigen::Index t = 0; t < ntx; ++t)
         if (!positive(t))
           for (int k = 0; k < 4; ++k) mark[T(t, k)] = 1;
-      for (int r = 0; r < rings; ++r) {
-        std::vector<char> next = mark;
-        for (Eigen::Index v = 0; v < nv; ++v)
-          if (mark[v])
-            for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e)
-              for (int k = 0; k < 4; ++k) next[T(vt.corner[e] / 4, k)] = 1;
-        mark.swap(next);
-      }
+      growRings(mark, T, vt, nv, rings);
     }
     for (Eigen::Index v = 0; v < nvx; ++v)
       if (mark[v] && !fixed[v]) inRegion[v] = static_cast<int>(freeVerts.size()), freeVerts.push_back(static_cast<int>(v));
