@@ -4,9 +4,14 @@
 #include "tet2spline/param/power_diagram.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Hilbert_policy_tags.h>
+#include <CGAL/Hilbert_sort_3.h>
 #include <CGAL/Regular_triangulation_3.h>
 #include <CGAL/Regular_triangulation_cell_base_3.h>
 #include <CGAL/Regular_triangulation_vertex_base_3.h>
+#include <CGAL/Spatial_sort_traits_adapter_3.h>
+#include <CGAL/Triangulation_cell_base_with_info_3.h>
+#include <CGAL/property_map.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -20,6 +25,7 @@
 #include <cstdlib>
 #include <map>
 #include <memory>
+#include <numeric>
 #include <sstream>
 #include <utility>
 
@@ -348,6 +354,10 @@ class ConvexCell {
   double radius2_ = 0;
 };
 
+struct DualScratch {
+  PodBuffer<Eigen::Vector3d> foot, area;
+};
+
 struct CellScratch {
   ConvexCell cell;
   std::vector<double> faceArea;
@@ -357,9 +367,35 @@ struct CellScratch {
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Vb0 = CGAL::Regular_triangulation_vertex_base_3<K>;
 using Vb = CGAL::Triangulation_vertex_base_with_info_3<int, K, Vb0>;
-using Cb = CGAL::Regular_triangulation_cell_base_3<K, CGAL::Triangulation_cell_base_3<K>, CGAL::Discard_hidden_points>;
+using Cb = CGAL::Regular_triangulation_cell_base_3<K, CGAL::Triangulation_cell_base_with_info_3<int, K>,
+                                                   CGAL::Discard_hidden_points>;
 using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb, CGAL::Sequential_tag>;
 using RegularTriangulation = CGAL::Regular_triangulation_3<K, Tds>;
+
+// A tet flatter than this (|det[d1 d2 d3]| / (|d1||d2||d3|), d_k its edges
+// from one vertex) leaves its power centre to the clipper: the centre's
+// rounding error grows like the inverse of this measure, so with 1e-6 it
+// stays below ~1e-10 of the tet's size.
+constexpr double kDualFlatness = 1e-6;
+
+// kEvenCompletion[q][r] = a for q ≠ r: the slot a such that (q, r, a, b) is
+// an even permutation of (0, 1, 2, 3), b the fourth slot.
+constexpr std::array<std::array<int, 4>, 4> kEvenCompletion = [] {
+  std::array<std::array<int, 4>, 4> table{};
+  for (int q = 0; q < 4; ++q)
+    for (int r = 0; r < 4; ++r) {
+      if (q == r) continue;
+      int rest[2], m = 0;
+      for (int x = 0; x < 4; ++x)
+        if (x != q && x != r) rest[m++] = x;
+      const int perm[4] = {q, r, rest[0], rest[1]};
+      int inversions = 0;
+      for (int x = 0; x < 4; ++x)
+        for (int z = x + 1; z < 4; ++z) inversions += perm[x] > perm[z];
+      table[q][r] = inversions % 2 == 0 ? rest[0] : rest[1];
+    }
+  return table;
+}();
 
 }  // namespace
 
@@ -469,30 +505,24 @@ int Domain::mostExposedPlane(const Eigen::Vector3d& x, int start) const {
 // ---------------------------------------------------------------------------
 // Power diagram
 
-PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
-                                 const Domain& domain) {
-  const int n = static_cast<int>(points.rows());
-  if (weights.size() != points.rows()) {
-    std::ostringstream msg;
-    msg << "computePowerDiagram: " << points.rows() << " points but " << weights.size() << " weights";
-    throw Error(ErrorKind::Usage, msg.str());
-  }
-  for (int i = 0; i < n; ++i)
-    if (!points.row(i).allFinite() || !std::isfinite(weights[i])) {
-      std::ostringstream msg;
-      msg << "computePowerDiagram: point " << i << " (" << points(i, 0) << ", " << points(i, 1) << ", "
-          << points(i, 2) << ") with weight " << weights[i] << " is not finite";
-      throw Error(ErrorKind::Input, msg.str());
-    }
+namespace {
 
+// The diagram of sites in a spatially coherent order (see computePowerDiagram):
+// neighbouring sites, their tets and their rows are close in memory.
+PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights, const Domain& domain,
+                                  CellMeasure measure) {
+  const int n = static_cast<int>(points.rows());
   PowerDiagram pd;
   pd.volumes = Eigen::VectorXd::Zero(n);
   pd.centroids = points;
   pd.neighbourStart.assign(n + 1, 0);
 
-  // 1. Regular triangulation, sequential insertion after CGAL's spatial sort.
+  // 1. Regular triangulation, sequential insertion after CGAL's spatial sort,
+  // copied into flat arrays: finite tets (positively oriented), their
+  // neighbours (-1 across a hull facet), and per site the sorted neighbours.
   auto t0 = Clock::now();
   std::vector<int> present(n, 0);
+  std::vector<std::array<int, 4>> tetVertex, tetNeighbour;
   {
     std::vector<std::pair<RegularTriangulation::Weighted_point, int>> input;
     input.reserve(n);
@@ -509,34 +539,17 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     }
     pd.hiddenSites = n - vertices;
     if (rt.dimension() == 3) {
-      // Every finite edge lies in a finite cell: collect the 3 edges of each
-      // vertex in each finite cell, then sort and deduplicate per vertex. Much
-      // cheaper than CGAL's edge iterator, which circulates around each edge.
-      std::vector<int> start(n + 1, 0);
-      for (auto c = rt.finite_cells_begin(); c != rt.finite_cells_end(); ++c)
-        for (int q = 0; q < 4; ++q) start[c->vertex(q)->info() + 1] += 3;
-      for (int i = 0; i < n; ++i) start[i + 1] += start[i];
-      std::vector<int> candidates(start[n]);
-      std::vector<int> fill(start.begin(), start.end() - 1);
+      int nt = 0;
+      for (auto c = rt.all_cells_begin(); c != rt.all_cells_end(); ++c) c->info() = rt.is_infinite(c) ? -1 : nt++;
+      tetVertex.resize(nt);
+      tetNeighbour.resize(nt);
       for (auto c = rt.finite_cells_begin(); c != rt.finite_cells_end(); ++c) {
-        const int v[4] = {c->vertex(0)->info(), c->vertex(1)->info(), c->vertex(2)->info(), c->vertex(3)->info()};
-        for (int q = 0; q < 4; ++q)
-          for (int r = 0; r < 4; ++r)
-            if (r != q) candidates[fill[v[q]]++] = v[r];
-      }
-      std::vector<int> degree(n + 1, 0);
-      tbb::parallel_for(tbb::blocked_range<int>(0, n, 512), [&](const tbb::blocked_range<int>& range) {
-        for (int i = range.begin(); i != range.end(); ++i) {
-          auto b = candidates.begin() + start[i], e = candidates.begin() + start[i + 1];
-          std::sort(b, e);
-          degree[i + 1] = static_cast<int>(std::unique(b, e) - b);
+        const int t = c->info();
+        for (int q = 0; q < 4; ++q) {
+          tetVertex[t][q] = c->vertex(q)->info();
+          tetNeighbour[t][q] = c->neighbor(q)->info();
         }
-      });
-      for (int i = 0; i < n; ++i) pd.neighbourStart[i + 1] = pd.neighbourStart[i] + degree[i + 1];
-      pd.neighbour.resize(pd.neighbourStart[n]);
-      tbb::parallel_for(0, n, [&](int i) {
-        std::copy_n(candidates.begin() + start[i], degree[i + 1], pd.neighbour.begin() + pd.neighbourStart[i]);
-      });
+      }
     } else {
       // Fewer than 4 affinely independent sites.
       for (auto e = rt.finite_edges_begin(); e != rt.finite_edges_end(); ++e) {
@@ -556,19 +569,155 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
       });
     }
   }
+  // Tets of each site, as t·4 + (the site's slot in t).
+  const int nt = static_cast<int>(tetVertex.size());
+  std::vector<int> incidentStart(n + 1, 0), incident(4 * static_cast<size_t>(nt));
+  if (nt > 0) {
+    for (const auto& tv : tetVertex)
+      for (int q = 0; q < 4; ++q) ++incidentStart[tv[q] + 1];
+    for (int i = 0; i < n; ++i) incidentStart[i + 1] += incidentStart[i];
+    std::vector<int> fill(incidentStart.begin(), incidentStart.end() - 1);
+    for (int t = 0; t < nt; ++t)
+      for (int q = 0; q < 4; ++q) incident[fill[tetVertex[t][q]]++] = 4 * t + q;
+    // Every finite edge lies in a finite tet: a site's neighbours are the
+    // other vertices of its tets.
+    std::vector<int> degree(n + 1, 0);
+    // Each neighbour shows up once per tet around the edge (about 5 times):
+    // a per-thread stamp drops the repeats before the (short) sort.
+    std::vector<int> candidates(3 * incident.size());
+    tbb::enumerable_thread_specific<std::vector<int>> stamps(std::vector<int>(n, -1));
+    tbb::parallel_for(tbb::blocked_range<int>(0, n, 512), [&](const tbb::blocked_range<int>& range) {
+      std::vector<int>& stamp = stamps.local();
+      for (int i = range.begin(); i != range.end(); ++i) {
+        const auto b = candidates.begin() + 3 * incidentStart[i];
+        auto e = b;
+        for (int s = incidentStart[i]; s < incidentStart[i + 1]; ++s)
+          for (int q = 0; q < 4; ++q) {
+            const int j = tetVertex[incident[s] / 4][q];
+            if (q != incident[s] % 4 && stamp[j] != i) {
+              stamp[j] = i;
+              *e++ = j;
+            }
+          }
+        std::sort(b, e);
+        degree[i + 1] = static_cast<int>(e - b);
+      }
+    });
+    for (int i = 0; i < n; ++i) pd.neighbourStart[i + 1] = pd.neighbourStart[i] + degree[i + 1];
+    pd.neighbour.resize(pd.neighbourStart[n]);
+    tbb::parallel_for(0, n, [&](int i) {
+      std::copy_n(candidates.begin() + 3 * incidentStart[i], degree[i + 1], pd.neighbour.begin() + pd.neighbourStart[i]);
+    });
+  }
   pd.facetArea.assign(pd.neighbour.size(), 0.0);
   pd.triangulationSeconds = secondsSince(t0);
 
-  // 2. Clip every cell.
+  // 2. Cells inside Ω from the dual. Power centre of each tet, and whether it
+  // can serve: in Ω, and the tet not so flat that the centre is ill-conditioned.
   t0 = Clock::now();
   const bool ball = domain.kind() == Domain::Kind::Ball;
+  std::vector<char> dual(n, 0);  // cell measured from the dual
+  if (measure == CellMeasure::DualWhereInside && nt > 0) {
+    std::vector<Eigen::Vector3d> site(n);
+    for (int i = 0; i < n; ++i) site[i] = points.row(i).transpose();
+    tbb::enumerable_thread_specific<DualScratch> dualScratch;
+    std::vector<Eigen::Vector3d> centre(nt);
+    std::vector<char> usable(nt, 0);
+    tbb::parallel_for(tbb::blocked_range<int>(0, nt, 4096), [&](const tbb::blocked_range<int>& range) {
+      for (int t = range.begin(); t != range.end(); ++t) {
+        const auto& tv = tetVertex[t];
+        const Eigen::Vector3d y0 = points.row(tv[0]).transpose();
+        Eigen::Vector3d d[3];
+        double c[3];
+        for (int k = 0; k < 3; ++k) {
+          d[k] = points.row(tv[k + 1]).transpose() - y0;
+          c[k] = 0.5 * (d[k].squaredNorm() - (weights[tv[k + 1]] - weights[tv[0]]));
+        }
+        const Eigen::Vector3d x12 = d[1].cross(d[2]), x20 = d[2].cross(d[0]), x01 = d[0].cross(d[1]);
+        const double det = d[0].dot(x12);
+        const double scale = d[0].norm() * d[1].norm() * d[2].norm();
+        // |det| / scale is the sine-like measure of the tet's flatness; the
+        // centre's rounding error grows like its inverse.
+        if (!(det > kDualFlatness * scale)) continue;
+        const Eigen::Vector3d x = y0 + (c[0] * x12 + c[1] * x20 + c[2] * x01) / det;
+        centre[t] = x;
+        usable[t] = ball ? x.squaredNorm() <= 1 : (x.array() >= 0).all() && (x.array() <= 1).all();
+      }
+    });
+    tbb::parallel_for(tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
+      for (int i = range.begin(); i != range.end(); ++i) {
+        if (!present[i]) continue;
+        bool inside = incidentStart[i + 1] > incidentStart[i];
+        for (int s = incidentStart[i]; s < incidentStart[i + 1] && inside; ++s) {
+          const int t = incident[s] / 4, q = incident[s] % 4;
+          inside = usable[t];
+          for (int r = 0; r < 4 && inside; ++r)
+            if (r != q) inside = tetNeighbour[t][r] >= 0;  // a hull facet through i: unbounded cell
+        }
+        if (!inside) continue;
+        // For the edge (i, j) = (slot q, slot r) of t, (q, r, a, b) an even
+        // permutation of (0, 1, 2, 3): the tets around the edge turn
+        // counter-clockwise about y_j − y_i from face (i, j, a) to (i, j, b),
+        // so the next one is t's neighbour opposite a, and ½ Σ p_t × p_next
+        // is the facet's area vector, pointing out of cell i.
+        // Per neighbour slot k: the foot of y_i on the facet's plane and the
+        // facet's area vector; each tet pair adds its triangle to both and
+        // its signed tet (y_i, foot, p_t, p_next) to the volume and moment.
+        const Eigen::Vector3d& y = site[i];
+        const int b = pd.neighbourStart[i], e = pd.neighbourStart[i + 1];
+        DualScratch& ds = dualScratch.local();
+        ds.foot.resize(e - b);
+        ds.area.resize(e - b);
+        for (int k = b; k < e; ++k) {
+          const int j = pd.neighbour[k];
+          const Eigen::Vector3d d = site[j] - y;
+          const double c = 0.5 * (d.squaredNorm() - (weights[j] - weights[i]));
+          ds.foot[k - b] = (c / d.squaredNorm()) * d;
+          ds.area[k - b].setZero();
+        }
+        Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+        for (int s = incidentStart[i]; s < incidentStart[i + 1]; ++s) {
+          const int t = incident[s] / 4, q = incident[s] % 4;
+          const Eigen::Vector3d p = centre[t] - y;
+          for (int r = 0; r < 4; ++r) {
+            if (r == q) continue;
+            const int j = tetVertex[t][r];
+            const Eigen::Vector3d pNext = centre[tetNeighbour[t][kEvenCompletion[q][r]]] - y;
+            const int k = static_cast<int>(std::lower_bound(pd.neighbour.begin() + b, pd.neighbour.begin() + e, j) -
+                                           (pd.neighbour.begin() + b));
+            const Eigen::Vector3d cr = p.cross(pNext);
+            ds.area[k] += cr;
+            moment += ds.foot[k].dot(cr) * (p + pNext);
+          }
+        }
+        double volume6 = 0;  // 6 × volume
+        for (int k = 0; k < e - b; ++k) {
+          const double v6 = ds.foot[k].dot(ds.area[k]);
+          volume6 += v6;
+          moment += v6 * ds.foot[k];
+          const double footNorm = ds.foot[k].norm();
+          // ½|area vector| along the facet normal d/|d| (foot = (c/|d|²) d).
+          const double a = footNorm > 0 ? 0.5 * std::abs(ds.area[k].dot(ds.foot[k])) / footNorm
+                                        : 0.5 * ds.area[k].norm();
+          pd.facetArea[b + k] = a;
+        }
+        dual[i] = 1;
+        if (volume6 > 0) {
+          pd.volumes[i] = volume6 / 6.0;
+          pd.centroids.row(i) = (y + moment / (4.0 * volume6)).transpose();
+        }
+      }
+    });
+  }
+
+  // 3. Clip the other cells.
   const Eigen::MatrixX3d& ballNormals = domain.planeNormals();
   tbb::enumerable_thread_specific<CellScratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
     CellScratch& s = scratch.local();
     ConvexCell& cell = s.cell;
     for (int i = range.begin(); i != range.end(); ++i) {
-      if (!present[i]) continue;
+      if (!present[i] || dual[i]) continue;
       const Eigen::Vector3d y = points.row(i).transpose();
       cell.initBox(domain.boundingBox().min() - y, domain.boundingBox().max() - y);
       const int b = pd.neighbourStart[i], e = pd.neighbourStart[i + 1];
@@ -612,6 +761,86 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     }
   });
   pd.clippingSeconds = secondsSince(t0);
+  for (int i = 0; i < n; ++i) pd.clippedCells += present[i] && !dual[i];
+  return pd;
+}
+
+}  // namespace
+
+PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
+                                 const Domain& domain, CellMeasure measure) {
+  const int n = static_cast<int>(points.rows());
+  if (weights.size() != points.rows()) {
+    std::ostringstream msg;
+    msg << "computePowerDiagram: " << points.rows() << " points but " << weights.size() << " weights";
+    throw Error(ErrorKind::Usage, msg.str());
+  }
+  for (int i = 0; i < n; ++i)
+    if (!points.row(i).allFinite() || !std::isfinite(weights[i])) {
+      std::ostringstream msg;
+      msg << "computePowerDiagram: point " << i << " (" << points(i, 0) << ", " << points(i, 1) << ", "
+          << points(i, 2) << ") with weight " << weights[i] << " is not finite";
+      throw Error(ErrorKind::Input, msg.str());
+    }
+
+
+  // Work in Hilbert order: with the sites in input order (random, for the
+  // OT benchmark) every neighbour lookup was a cache miss, and the dual
+  // measurement of 181k cells took 0.6 s instead of 0.35 s.
+  auto t0 = Clock::now();
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  {
+    std::vector<K::Point_3> p;
+    p.reserve(n);
+    for (int i = 0; i < n; ++i) p.emplace_back(points(i, 0), points(i, 1), points(i, 2));
+    using Traits = CGAL::Spatial_sort_traits_adapter_3<K, CGAL::Pointer_property_map<K::Point_3>::type>;
+    CGAL::Hilbert_sort_3<Traits, CGAL::Hilbert_sort_median_policy> sort(Traits(CGAL::make_property_map(p)));
+    sort(order.begin(), order.end());
+  }
+  Eigen::MatrixX3d sortedPoints(n, 3);
+  Eigen::VectorXd sortedWeights(n);
+  for (int r = 0; r < n; ++r) {
+    sortedPoints.row(r) = points.row(order[r]);
+    sortedWeights[r] = weights[order[r]];
+  }
+  const double sortSeconds = secondsSince(t0);
+  const PowerDiagram sorted = diagramOfSortedSites(sortedPoints, sortedWeights, domain, measure);
+
+  // Back to the input order: rows moved, neighbour ids renamed, each row
+  // sorted again by id with its areas.
+  t0 = Clock::now();
+  PowerDiagram pd;
+  pd.volumes.resize(n);
+  pd.centroids.resize(n, 3);
+  pd.neighbourStart.assign(n + 1, 0);
+  for (int r = 0; r < n; ++r) {
+    const int i = order[r];
+    pd.volumes[i] = sorted.volumes[r];
+    pd.centroids.row(i) = sorted.centroids.row(r);
+    pd.neighbourStart[i + 1] = sorted.neighbourStart[r + 1] - sorted.neighbourStart[r];
+  }
+  for (int i = 0; i < n; ++i) pd.neighbourStart[i + 1] += pd.neighbourStart[i];
+  pd.neighbour.resize(sorted.neighbour.size());
+  pd.facetArea.resize(sorted.facetArea.size());
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 1024), [&](const tbb::blocked_range<int>& range) {
+    std::vector<std::pair<int, double>> row;
+    for (int r = range.begin(); r != range.end(); ++r) {
+      row.clear();
+      for (int k = sorted.neighbourStart[r]; k < sorted.neighbourStart[r + 1]; ++k)
+        row.emplace_back(order[sorted.neighbour[k]], sorted.facetArea[k]);
+      std::sort(row.begin(), row.end());
+      int k = pd.neighbourStart[order[r]];
+      for (const auto& [j, a] : row) {
+        pd.neighbour[k] = j;
+        pd.facetArea[k++] = a;
+      }
+    }
+  });
+  pd.hiddenSites = sorted.hiddenSites;
+  pd.clippedCells = sorted.clippedCells;
+  pd.triangulationSeconds = sortSeconds + sorted.triangulationSeconds + secondsSince(t0);
+  pd.clippingSeconds = sorted.clippingSeconds;
   return pd;
 }
 

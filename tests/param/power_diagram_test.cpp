@@ -76,6 +76,39 @@ TEST(PowerDiagram, BallCellsTileTheBallPolytope) {
   expectTiling(pd, ball, 1e-12);
 }
 
+// The dual measurement of inner cells (power centres around each edge) gives
+// the clipper's volumes, centroids and facet areas, on both domains, with
+// weights spread enough that some sites are hidden and cells differ in size.
+void expectDualMatchesClipping(const Eigen::MatrixX3d& y, const Eigen::VectorXd& psi, const Domain& domain) {
+  const PowerDiagram dual = computePowerDiagram(y, psi, domain, CellMeasure::DualWhereInside);
+  const PowerDiagram clip = computePowerDiagram(y, psi, domain, CellMeasure::ClipAll);
+  const int n = static_cast<int>(y.rows());
+  EXPECT_EQ(clip.clippedCells, n - clip.hiddenSites);
+  EXPECT_LT(dual.clippedCells, n / 2) << "the dual measured too few cells for the test to mean anything";
+  ASSERT_EQ(dual.neighbour, clip.neighbour);
+  const double meanVolume = domain.volume() / n;
+  for (int i = 0; i < n; ++i) {
+    EXPECT_NEAR(dual.volumes[i], clip.volumes[i], 1e-10 * meanVolume) << i;
+    EXPECT_LT((dual.centroids.row(i) - clip.centroids.row(i)).norm(), 1e-10) << i;
+  }
+  const double meanArea = std::pow(meanVolume, 2.0 / 3.0);
+  for (std::size_t k = 0; k < dual.facetArea.size(); ++k)
+    EXPECT_NEAR(dual.facetArea[k], clip.facetArea[k], 1e-10 * meanArea) << k;
+  expectTiling(dual, domain, 1e-12);
+}
+
+TEST(PowerDiagram, DualMeasureOfInnerCellsMatchesClipping) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0, 2e-3);
+  Eigen::MatrixX3d y = randomPoints(4000, 10);
+  Eigen::VectorXd psi(y.rows());
+  for (auto& w : psi) w = u(rng);
+  expectDualMatchesClipping(y, psi, Domain::unitCube());
+  y = randomPointsInBall(4000, 12, 0.9);
+  for (auto& w : psi) w = u(rng);
+  expectDualMatchesClipping(y, psi, Domain::unitBall(4));
+}
+
 TEST(PowerDiagram, BallPolytopeContainsTheSphereAndApproximatesItsVolume) {
   const Domain ball = Domain::unitBall();
   EXPECT_EQ(ball.planeNormals().rows(), 40962);

@@ -8,9 +8,11 @@
 /// the area of the facet it shares with each neighbour inside Ω (what the
 /// Hessian of the Kantorovich dual needs). The neighbours come from a CGAL
 /// regular triangulation (built sequentially after a spatial sort: CGAL 5.5's
-/// parallel insertion has a race); each cell is then clipped independently
-/// (TBB) by a small convex-polytope clipper, so volumes, centroids and areas
-/// are exact for the polytope up to rounding. CGAL stays inside the .cpp.
+/// parallel insertion has a race). Cells inside Ω are then measured from the
+/// triangulation's dual (power centres), the others clipped independently by a
+/// small convex-polytope clipper (both in parallel, TBB; see CellMeasure), so
+/// volumes, centroids and areas are exact for the polytope up to rounding.
+/// CGAL stays inside the .cpp.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -84,17 +86,33 @@ struct PowerDiagram {
   std::vector<double> facetArea;     ///< |Lag_i ∩ Lag_j|, aligned with `neighbour`
   int hiddenSites = 0;               ///< sites that are no vertex of the regular triangulation (empty cells)
   double triangulationSeconds = 0;   ///< regular triangulation + neighbour lists
-  double clippingSeconds = 0;        ///< clipping the cells (parallel)
+  double clippingSeconds = 0;        ///< measuring the cells: dual polygons and clipping (parallel)
+  int clippedCells = 0;              ///< cells measured by the clipper (the rest from the dual, see below)
+};
+
+/// How `computePowerDiagram` measures the cells.
+enum class CellMeasure {
+  /// A cell whose power vertices (the power centres of its tets in the
+  /// regular triangulation) all lie in Ω, with no tet flatter than a
+  /// conditioning bound, is the convex hull of those vertices: its facets are
+  /// the polygons of power centres around its triangulation edges, so volume,
+  /// centroid and facet areas come from the dual directly. The other cells
+  /// (on ∂Ω, on the sites' convex hull, next to a flat tet) are clipped.
+  /// Default.
+  DualWhereInside,
+  /// Every cell clipped from Ω by its neighbours' planes (the reference the
+  /// tests compare with).
+  ClipAll,
 };
 
 /// The power diagram of sites `points` (#N × 3) with weights `weights` (#N),
 /// power distance |x − y_i|² − ψ_i, clipped to `domain`.
 /// Sites may lie outside Ω (their cells may then be empty). Coincident sites:
-/// the one with the larger weight (the first one on a tie) owns the cell, the
+/// the one with the larger weight (on a tie, one of them) owns the cell, the
 /// others are hidden and get empty cells; never a crash.
 /// Throws Error(Usage) if the sizes disagree and Error(Input) for non-finite
 /// coordinates or weights.
 PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
-                                 const Domain& domain);
+                                 const Domain& domain, CellMeasure measure = CellMeasure::DualWhereInside);
 
 }  // namespace tet2spline
