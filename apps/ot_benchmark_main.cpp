@@ -22,6 +22,26 @@
 //   2.4 s, solve 6.2 s: 52.8 s, 329 MiB. CGAL's Delaunay_triangulation_3 of
 //   the same points takes 1.07 s here, so the 15 s target cannot be met with
 //   one regular triangulation per diagram and ~10 Newton iterations.
+// Measured 2026-12-03 (cells inside the cube measured from the regular
+// triangulation's dual, sites in Hilbert order; machine otherwise idle),
+// medians of 3 runs:
+//   N      it  diagrams  triang.  clipping  assembly  solve   total   peak RSS
+//   10k     8     10      0.47 s   0.21 s    0.03 s   0.05 s   0.9 s    26 MiB
+//   100k   10     14      8.2 s    2.7 s     0.6 s    1.6 s   14.4 s   198 MiB
+//   181k   10     14     16.4 s    4.6 s     1.4 s    3.9 s   29.3 s   298 MiB
+// (runs of the same build vary by ±12%: 181k took 25.9, 29.3 and 32.4 s.)
+// Per diagram at 181k: CGAL's insertion ~0.95 s, the copy into flat arrays
+// and teardown ~0.15 s, neighbour lists 0.09 s, Hilbert sort and the way
+// back to input order 0.1 s; measuring: 0.27 s for the 167k inner cells
+// from the dual, 0.05 s clipping the 14k cells on the cube's faces (it was
+// 0.9 s clipping all of them). What is left is CGAL's sequential insertion
+// times 14 diagrams. A multiscale start (Mérigot 2011: points grouped by 8
+// along a Morton order, the groups' OT solved first, each point starting
+// from its group's weight and affine extension) was tried and dropped: on
+// random points the start hides 38–99% of the sites (a coarse weight is off
+// the smooth potential by O(coarse spacing²), far above the squared distance
+// of close pairs of fine points), and KMT's Newton needs every cell
+// non-empty.
 // --points FILE runs a real input: bunny00's cube problem (181313 sites, the
 // harmonic images in the ball of radius 1/2, lumped tet volumes; masses span
 // 7e-9 .. 2e-5) needs 59 iterations and 500 s: the Voronoi start leaves cells
