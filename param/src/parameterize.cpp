@@ -260,6 +260,20 @@ CubePlacement placeOnCube(const Eigen::MatrixX3d& sites, const Eigen::VectorXd& 
 // smeared over the interface cells (in 1D this makes them exact; measured on
 // a sphere holding a density-4 sphere, 2.5k tets: region fraction 0.165
 // instead of 0.203 with one site per vertex).
+// Per vertex: 1 when its tets do not all have the same density w.
+std::vector<char> densityJumps(const TetMesh& mesh, const Eigen::VectorXd& w) {
+  const Eigen::Index nv = mesh.numVertices(), nt = mesh.numTets();
+  std::vector<char> jump(static_cast<size_t>(nv), 0);
+  std::vector<double> first(static_cast<size_t>(nv), -1);
+  for (Eigen::Index t = 0; t < nt; ++t)
+    for (int k = 0; k < 4; ++k) {
+      double& f = first[static_cast<size_t>(mesh.T(t, k))];
+      if (f < 0) f = w(t);
+      else if (f != w(t)) jump[static_cast<size_t>(mesh.T(t, k))] = 1;
+    }
+  return jump;
+}
+
 void buildSites(const TetMesh& mesh, const Eigen::MatrixX3d& y, const Eigen::VectorXd& target, bool split,
                 std::vector<int>& siteStart, Eigen::MatrixX3d& sites, Eigen::VectorXd& masses) {
   const Eigen::Index nv = mesh.numVertices(), nt = mesh.numTets();
@@ -492,7 +506,11 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       std::vector<int> siteStart;
       Eigen::MatrixX3d sites;
       Eigen::VectorXd masses;
-      buildSites(mesh, y, r.targetVolume, options.interfaceSites, siteStart, sites, masses);
+      const std::vector<char> jumps = densityJumps(mesh, w);
+      const bool split = options.interfaceSites == ParamOptions::InterfaceSites::On ||
+                         (options.interfaceSites == ParamOptions::InterfaceSites::Auto &&
+                          std::find(jumps.begin(), jumps.end(), 1) != jumps.end());
+      buildSites(mesh, y, r.targetVolume, split, siteStart, sites, masses);
       OptimalTransportOptions ot = options.transportOptions;
       ot.progress = [&](double f, const std::string& m) {
         return !options.progress || options.progress(f >= 0 ? 0.3 + 0.6 * f : -1, m);
@@ -591,16 +609,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         // Measure relaxation where the density jumps (see relaxIterations):
         // the vertices within relaxRings rings of a vertex whose tets have
         // different densities move; the others and the boundary stay.
-        std::vector<char> jump(static_cast<size_t>(nv), 0);
-        {
-          std::vector<double> first(static_cast<size_t>(nv), -1);
-          for (Eigen::Index t = 0; t < nt; ++t)
-            for (int k = 0; k < 4; ++k) {
-              double& f = first[static_cast<size_t>(mesh.T(t, k))];
-              if (f < 0) f = w(t);
-              else if (f != w(t)) jump[static_cast<size_t>(mesh.T(t, k))] = 1;
-            }
-        }
+        std::vector<char> jump = densityJumps(mesh, w);
         for (int ring = 0; ring < options.relaxRings; ++ring) {
           std::vector<char> next = jump;
           for (Eigen::Index t = 0; t < nt; ++t) {

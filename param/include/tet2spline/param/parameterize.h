@@ -86,12 +86,21 @@ struct ParamOptions {
   /// it (part.off: 3 of 4 remaining inverted tets); without corners part.off
   /// ends with 0. The cube's corners are then cut off by small triangles.
   bool cubeCorners = false;
-  /// One OT site per region where regions meet (parameterize.cpp buildSites).
+  /// One OT site per region where regions meet (parameterize.cpp buildSites):
+  /// Off, On, or Auto (default): on when the density jumps somewhere (a
+  /// vertex whose tets have different densities), so volume-preserving runs
+  /// keep one site per vertex.
   /// Measured on a sphere holding a density-4 sphere (2.5k tets, ball):
   /// region fraction 0.193 instead of 0.165 (target 0.203) straight after the
   /// composition, but 36-46 inverted tets instead of 0-10; after the measure
-  /// relaxation both give 0.1975. Hence off by default.
-  bool interfaceSites = false;
+  /// relaxation both give 0.1975. On models/two_material.off (--density 2=4,
+  /// cube) the relaxation alone leaves region 2 at 0.1431–0.1454 of the cube
+  /// (target 0.1485; the spread is rounding in the transport's last digits
+  /// amplified by the untangling; 1000 or 3000 relaxation iterations, or
+  /// sliding boundary vertices, give 0.1446–0.1457), with interface sites
+  /// 0.1499.
+  enum class InterfaceSites { Off, On, Auto };
+  InterfaceSites interfaceSites = InterfaceSites::Auto;
   /// The final untangling, first phase: the boundary held except near the
   /// triangles the placement flipped (untangle.h, holdBoundaryAwayFromFlips).
   /// After the composition the inversions are many (~8% of the tets of
