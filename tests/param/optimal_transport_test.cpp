@@ -162,6 +162,22 @@ TEST(OptimalTransport, ConvergesGloballyFromAPoorStart) {
     const auto r = solveOptimalTransport(y, nu, Domain::unitCube(), options);
     expectSolved(r, Domain::unitCube(), 1e-6);
     EXPECT_LT(*std::min_element(r.stepSizes.begin(), r.stepSizes.end()), 1.0);  // damping was needed
+    // The line search brackets small steps by doubling gaps and bisects: a
+    // step 2^-k that took k or more halvings from the iteration's first try
+    // costs fewer than the k + 1 diagrams of halving one at a time.
+    double previous = 1;
+    int bracketed = 0;
+    for (std::size_t it = 0; it < r.iterationStats.size(); ++it) {
+      const auto& s = r.iterationStats[it];
+      if (s.stepSize <= 0) continue;
+      const int halvings = static_cast<int>(std::lround(std::log2(std::min(1.0, 2 * previous) / s.stepSize)));
+      if (halvings >= 6) {
+        EXPECT_LT(s.evaluations, halvings + 1) << "iteration " << it << ", step " << s.stepSize;
+        ++bracketed;
+      }
+      previous = s.stepSize;
+    }
+    EXPECT_GE(bracketed, 1) << "no iteration needed 6 halvings: the check above means nothing";
   }
 }
 
