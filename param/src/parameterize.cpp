@@ -609,7 +609,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         // Measure relaxation where the density jumps (see relaxIterations):
         // the vertices within relaxRings rings of a vertex whose tets have
         // different densities move; the others and the boundary stay.
-        std::vector<char> jump = densityJumps(mesh, w);
+        std::vector<char> jump = jumps;  // grown by rings below
         for (int ring = 0; ring < options.relaxRings; ++ring) {
           std::vector<char> next = jump;
           for (Eigen::Index t = 0; t < nt; ++t) {

@@ -378,6 +378,11 @@ using RegularTriangulation = CGAL::Regular_triangulation_3<K, Tds>;
 // stays below ~1e-10 of the tet's size.
 constexpr double kDualFlatness = 1e-6;
 
+// The radical plane of sites y_i, y_j (weights wi, wj) in coordinates local
+// to y_i is { x : x · d = c } with d = y_j − y_i and this c: the side
+// x · d <= c is where y_i's power distance is the smaller.
+double radicalOffset(const Eigen::Vector3d& d, double wi, double wj) { return 0.5 * (d.squaredNorm() - (wj - wi)); }
+
 // kEvenCompletion[q][r] = a for q ≠ r: the slot a such that (q, r, a, b) is
 // an even permutation of (0, 1, 2, 3), b the fourth slot.
 constexpr std::array<std::array<int, 4>, 4> kEvenCompletion = [] {
@@ -631,7 +636,7 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
         double c[3];
         for (int k = 0; k < 3; ++k) {
           d[k] = points.row(tv[k + 1]).transpose() - y0;
-          c[k] = 0.5 * (d[k].squaredNorm() - (weights[tv[k + 1]] - weights[tv[0]]));
+          c[k] = radicalOffset(d[k], weights[tv[0]], weights[tv[k + 1]]);
         }
         const Eigen::Vector3d x12 = d[1].cross(d[2]), x20 = d[2].cross(d[0]), x01 = d[0].cross(d[1]);
         const double det = d[0].dot(x12);
@@ -671,7 +676,7 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
         for (int k = b; k < e; ++k) {
           const int j = pd.neighbour[k];
           const Eigen::Vector3d d = site[j] - y;
-          const double c = 0.5 * (d.squaredNorm() - (weights[j] - weights[i]));
+          const double c = radicalOffset(d, weights[i], weights[j]);
           ds.foot[k - b] = (c / d.squaredNorm()) * d;
           ds.area[k - b].setZero();
         }
@@ -726,7 +731,7 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
       for (int k = b; k < e && !cell.empty(); ++k) {
         const int j = pd.neighbour[k];
         const Eigen::Vector3d d = points.row(j).transpose() - y;
-        const double c = 0.5 * (d.squaredNorm() - (weights[j] - weights[i]));
+        const double c = radicalOffset(d, weights[i], weights[j]);
         if (c > 0 && c * c >= cell.radius2() * d.squaredNorm()) continue;
         cell.clip(d, c, k - b);
       }
