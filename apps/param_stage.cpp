@@ -92,6 +92,10 @@ void addParamReport(json& j, const ParamResult& r) {
   setPath(j, "param.boundary_max_distance", r.param.boundaryMaxDistance);
   setPath(j, "param.corner_vertices", r.param.cornerVertices);
   setPath(j, "param.edge_vertices", r.param.edgeVertices);
+  setPath(j, "param.morph.used", r.param.morphed);
+  if (r.param.morphed)
+    setPath(j, "param.morph", json{{"used", true}, {"rms_distance", r.param.morphDistance},
+                                   {"max_distance", r.param.morphMaxDistance}});
   setPath(j, "param.volume_ratio", json{{"p1", r.param.volumeRatioP1}, {"p50", r.param.volumeRatioP50},
                                         {"p99", r.param.volumeRatioP99}, {"min", r.param.volumeRatioMin},
                                         {"max", r.param.volumeRatioMax}});
@@ -114,6 +118,7 @@ void addParamReport(json& j, const ParamResult& r) {
     setPath(j, "timings.transport_linear_solve", r.ot.linearSolveSeconds);
     setPath(j, "timings.composition", r.timings.composition);
     setPath(j, "timings.final_untangle", r.timings.finalUntangle);
+    setPath(j, "timings.morph", r.timings.morph);
     setPath(j, "timings.relax", r.timings.relax);
   }
   setPath(j, "timings.param", r.timings.total);

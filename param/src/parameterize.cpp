@@ -10,6 +10,7 @@
 #include <limits>
 #include <numeric>
 
+#include "tet2spline/param/barrier_morph.h"
 #include "tet2spline/param/refine.h"
 #include "tet2spline/param/topology.h"
 
@@ -420,6 +421,55 @@ Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure)
   return w;
 }
 
+// The barrier morph's start: a bijective map onto Ω from the ball map, or an
+// empty matrix when untangling cannot make one. The few tets the ball map's
+// untangling may have left inverted (spool.off: 1) are untangled again, with
+// projected Newton (here it repairs what L-BFGS left) and the sphere
+// sliding; that is the start on the ball. On the cube, the ball map stretched
+// onto it: x ↦ ½ + ½ x |x|₂/|x|_∞ maps the unit ball onto [0,1]³ (positively
+// homogeneous of degree 1, a homeomorphism) and the sphere onto the cube's
+// surface (the largest coordinate set exactly to 0 or 1). Every vertex moves
+// along its own ray from the centre, so the cones over boundary triangles
+// keep their sign; tets that the stretch folds where it bends (the planes
+// |x_i| = |x_j|) are untangled (Newton) with the boundary sliding on the cube,
+// across its edges.
+Eigen::MatrixX3d morphStart(const TetMesh& mesh, const Eigen::MatrixX3d& ballU, const Eigen::MatrixX3i& boundaryFaces,
+                            ParamDomain domain, const UntangleOptions& base) {
+  const std::vector<bool> none(static_cast<size_t>(ballU.rows()), false);
+  UntangleOptions o = base;
+  o.method = UntangleMethod::Newton;
+  Eigen::MatrixX3d ball = ballU;
+  if (countNonPositiveTets(ball, mesh.T) > 0) {
+    o.sphereFaces = boundaryFaces;
+    UntangleResult u = untangle(mesh.V, mesh.T, ball, none, o);
+    if (u.invertedAfter > 0 || u.flippedBoundaryTriangles > 0) return {};
+    ball = std::move(u.U);
+    o.sphereFaces.resize(0, 3);
+  }
+  if (domain == ParamDomain::Ball) return ball;
+  Eigen::MatrixX3d U(ball.rows(), 3);
+  std::vector<char> onBoundary(static_cast<size_t>(ball.rows()), 0);
+  for (Eigen::Index f = 0; f < boundaryFaces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) onBoundary[static_cast<size_t>(boundaryFaces(f, k))] = 1;
+  for (Eigen::Index v = 0; v < ball.rows(); ++v) {
+    const Eigen::Vector3d x = ball.row(v);
+    Eigen::Index axis = 0;
+    const double inf = x.cwiseAbs().maxCoeff(&axis);
+    if (onBoundary[static_cast<size_t>(v)]) {
+      U.row(v) = (0.5 * x / inf).array() + 0.5;
+      U(v, axis) = x[axis] > 0 ? 1 : 0;
+    } else {
+      U.row(v) = inf > 0 ? Eigen::RowVector3d((0.5 * x * (x.norm() / inf)).array() + 0.5) : Eigen::RowVector3d(0.5, 0.5, 0.5);
+    }
+  }
+  if (countNonPositiveTets(U, mesh.T) == 0) return U;
+  o.cubeFaces = boundaryFaces;
+  o.cubeAcrossEdges = true;
+  const UntangleResult u = untangle(mesh.V, mesh.T, U, none, o);
+  if (u.invertedAfter > 0 || u.flippedBoundaryTriangles > 0) return {};
+  return u.U;
+}
+
 ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
   const auto start = Clock::now();
   if (!options.transport && options.domain != ParamDomain::Ball)
@@ -602,8 +652,40 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
           untangled = untangle(mesh.V, mesh.T, untangled.U, fixed, untangleOptions);
         }
       }
-      r.U = std::move(untangled.U);
       r.timings.finalUntangle = secondsSince(t0);
+      if ((untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) && options.morphWhenTangled &&
+          r.sphere.flippedTriangles == 0 && !untangled.stopped) {
+        // The composition folds more than untangling repairs: start again
+        // from the bijective ball map (stretched onto the cube) and move it
+        // towards the untangler's result, which is bijective almost
+        // everywhere, behind a barrier that keeps every tet positive
+        // (barrier_morph.h).
+        t0 = Clock::now();
+        report(0.95, "morph from the ball map");
+        UntangleOptions startOptions;
+        startOptions.progress = untangleOptions.progress;
+        const Eigen::MatrixX3d start = morphStart(mesh, r.ballU, r.boundaryFaces, options.domain, startOptions);
+        if (start.rows() == nv) {
+          BarrierMorphOptions morph;
+          morph.targetVolumes = r.targetVolume;
+          (options.domain == ParamDomain::Cube ? morph.cubeFaces : morph.sphereFaces) = r.boundaryFaces;
+          morph.progress = [&](double, const std::string& m) { return !options.progress || options.progress(-1, m); };
+          BarrierMorphResult morphed =
+              morphTowards(mesh.V, mesh.T, start, untangled.U, std::vector<bool>(static_cast<size_t>(nv), false), morph);
+          if (morphed.stopped) throw Status::failure("stopped during the morph");
+          r.param.morphed = true;
+          r.param.morphDistance = morphed.distance;
+          r.param.morphMaxDistance = morphed.maxDistance;
+          r.warnings.push_back(
+              "the transport's composition could not be untangled (" + std::to_string(untangled.invertedAfter) +
+              " tets left inverted); the parameterization is the ball map moved towards it without inverting a tet "
+              "(param.morph: root mean square distance " + formatDouble(morphed.distance) + " target edges)");
+          untangled.U = std::move(morphed.U);
+          untangled.invertedAfter = countNonPositiveTets(untangled.U, mesh.T);
+        }
+        r.timings.morph = secondsSince(t0);
+      }
+      r.U = std::move(untangled.U);
       t0 = Clock::now();
       if (options.relaxIterations > 0 && untangled.invertedAfter == 0) {
         // Measure relaxation where the density jumps (see relaxIterations):

@@ -11,12 +11,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <deque>
 #include <limits>
+#include <memory>
 
-#include <Eigen/CholmodSupport>
-#include <Eigen/SparseCore>
-
+#include "block_hessian.h"
+#include "lbfgs.h"
 #include "spd_solver.h"
 #include "tet2spline/param/topology.h"
 #include "untangle_energy.h"
@@ -24,65 +23,6 @@
 namespace tet2spline {
 
 namespace {
-
-// Minimises f with L-BFGS and Armijo backtracking; returns iterations used.
-template <class FunGrad>
-int lbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
-  Eigen::VectorXd g(x.size()), gNew(x.size()), xNew(x.size());
-  double f = fg(x, g);
-  std::deque<Eigen::VectorXd> S, Y;
-  std::deque<double> rho;
-  int it = 0;
-  for (; it < maxIter; ++it) {
-    if (!(g.squaredNorm() > 0)) break;
-    // Two-loop recursion.
-    Eigen::VectorXd d = -g;
-    std::vector<double> alpha(S.size());
-    for (int k = static_cast<int>(S.size()) - 1; k >= 0; --k) {
-      alpha[k] = rho[k] * S[k].dot(d);
-      d -= alpha[k] * Y[k];
-    }
-    double gamma = S.empty() ? 1.0 / std::max(g.norm(), 1e-300) : S.back().dot(Y.back()) / Y.back().squaredNorm();
-    d *= gamma;
-    for (size_t k = 0; k < S.size(); ++k) d += S[k] * (alpha[k] - rho[k] * Y[k].dot(d));
-    double slope = g.dot(d);
-    if (!(slope < 0)) {
-      S.clear(), Y.clear(), rho.clear();
-      d = -g / std::max(g.norm(), 1e-300);
-      slope = g.dot(d);
-    }
-    double step = 1, fNew = 0;
-    bool accepted = false;
-    for (int ls = 0; ls < 40; ++ls, step *= 0.5) {
-      xNew = x + step * d;
-      fNew = fg(xNew, gNew);
-      if (std::isfinite(fNew) && fNew <= f + 1e-4 * step * slope) {
-        accepted = true;
-        break;
-      }
-    }
-    if (!accepted) {
-      if (S.empty()) break;  // even steepest descent cannot decrease f
-      S.clear(), Y.clear(), rho.clear();
-      continue;
-    }
-    const Eigen::VectorXd s = xNew - x, y = gNew - g;
-    const double sy = s.dot(y);
-    x.swap(xNew);
-    g.swap(gNew);
-    const double decrease = f - fNew;
-    f = fNew;
-    if (sy > 1e-12 * s.norm() * y.norm()) {
-      S.push_back(s), Y.push_back(y), rho.push_back(1 / sy);
-      if (static_cast<int>(S.size()) > memory) S.pop_front(), Y.pop_front(), rho.pop_front();
-    }
-    if (decrease <= 1e-12 * std::abs(f)) {
-      ++it;
-      break;
-    }
-  }
-  return it;
-}
 
 // Whether tet t of T is positively oriented at positions W, exactly.
 bool positiveTet(const Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, Eigen::Index t) {
@@ -599,69 +539,8 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     auto detMin = [&]() { return active.empty() ? 1.0 : *std::min_element(det.begin(), det.end()); };
     const bool useNewton = options.method == UntangleMethod::Newton;
     const Eigen::Index nFree = static_cast<Eigen::Index>(freeVerts.size());
-    std::vector<int> nbrOffset, nbr;      // free neighbours of each free vertex (itself included), sorted
-    std::vector<Eigen::Index> colStart;   // first value of block column k
-    std::vector<int> tetBlock;            // per active tet, 16 entries: position of block (a, b) in nbr, or −1
-    std::vector<int> diagPos;             // position of k in its own neighbour list
-    // Index in the value array of entry (r, c) of the block of column block k
-    // at position p of its neighbour list.
-    auto valueIndex = [&](size_t k, int p, int r, int c) {
-      return colStart[k] + 3 * c * (nbrOffset[k + 1] - nbrOffset[k]) + 3 * p + r;
-    };
-    Eigen::SparseMatrix<double> hessian;
-    Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> cholmod;
-    if (useNewton) {
-      nbrOffset.assign(static_cast<size_t>(nFree) + 1, 0);
-      std::vector<std::vector<int>> lists(static_cast<size_t>(nFree));
-      tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, nFree, 512), [&](const tbb::blocked_range<Eigen::Index>& r) {
-        for (Eigen::Index k = r.begin(); k != r.end(); ++k) {
-          const int v = freeVerts[static_cast<size_t>(k)];
-          auto& l = lists[static_cast<size_t>(k)];
-          for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e)
-            for (int j = 0; j < 4; ++j)
-              if (inRegion[T(vt.corner[e] / 4, j)] >= 0) l.push_back(inRegion[T(vt.corner[e] / 4, j)]);
-          std::sort(l.begin(), l.end());
-          l.erase(std::unique(l.begin(), l.end()), l.end());
-        }
-      });
-      for (Eigen::Index k = 0; k < nFree; ++k)
-        nbrOffset[static_cast<size_t>(k) + 1] = nbrOffset[static_cast<size_t>(k)] + static_cast<int>(lists[static_cast<size_t>(k)].size());
-      nbr.reserve(static_cast<size_t>(nbrOffset.back()));
-      for (auto& l : lists) nbr.insert(nbr.end(), l.begin(), l.end()), std::vector<int>().swap(l);
-      colStart.resize(static_cast<size_t>(nFree) + 1);
-      for (Eigen::Index k = 0; k <= nFree; ++k) colStart[static_cast<size_t>(k)] = 9 * static_cast<Eigen::Index>(nbrOffset[static_cast<size_t>(k)]);
-      const Eigen::Index n = 3 * nFree;
-      hessian.resize(n, n);
-      hessian.resizeNonZeros(colStart.back());
-      for (Eigen::Index k = 0; k < nFree; ++k) {
-        const int deg = nbrOffset[static_cast<size_t>(k) + 1] - nbrOffset[static_cast<size_t>(k)];
-        for (int c = 0; c < 3; ++c) {
-          hessian.outerIndexPtr()[3 * k + c] = static_cast<int>(valueIndex(static_cast<size_t>(k), 0, 0, c));
-          for (int p = 0; p < deg; ++p)
-            for (int r = 0; r < 3; ++r)
-              hessian.innerIndexPtr()[valueIndex(static_cast<size_t>(k), p, r, c)] =
-                  3 * nbr[static_cast<size_t>(nbrOffset[static_cast<size_t>(k)] + p)] + r;
-        }
-      }
-      hessian.outerIndexPtr()[n] = static_cast<int>(colStart.back());
-      auto position = [&](int k, int m) {  // of free vertex m in k's neighbour list
-        const int* first = nbr.data() + nbrOffset[static_cast<size_t>(k)];
-        const int* last = nbr.data() + nbrOffset[static_cast<size_t>(k) + 1];
-        return static_cast<int>(std::lower_bound(first, last, m) - first);
-      };
-      tetBlock.assign(active.size() * 16, -1);
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t a = r.begin(); a != r.end(); ++a)
-          for (int i = 0; i < 4; ++i)
-            for (int j = 0; j < 4; ++j) {
-              const int ki = inRegion[T(active[a], i)], kj = inRegion[T(active[a], j)];
-              if (ki >= 0 && kj >= 0) tetBlock[16 * a + 4 * i + j] = position(kj, ki);
-            }
-      });
-      diagPos.resize(static_cast<size_t>(nFree));
-      for (Eigen::Index k = 0; k < nFree; ++k) diagPos[static_cast<size_t>(k)] = position(static_cast<int>(k), static_cast<int>(k));
-      cholmod.analyzePattern(hessian);
-    }
+    std::unique_ptr<detail::BlockHessian> hessian;
+    if (useNewton) hessian = std::make_unique<detail::BlockHessian>(T, vt, freeVerts, inRegion, active);
     // dW_v = M dx_v for free vertex k = inRegion[v], at unknowns x, and C,
     // the projector onto the directions the constraints remove (the sphere's
     // normal, locked or held cube coordinates): M C = 0.
@@ -691,60 +570,27 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       }
       return c;
     };
-    constexpr size_t kChunk = 1 << 15;
-    std::vector<Eigen::Matrix3d> blocks;  // per-tet blocks of the chunk being assembled
     // Assembles the projected Hessian at x (W and eps as left by evaluate(x, &g)).
+    // Directions the constraints remove (the sphere's normal, locked or
+    // clamped cube coordinates) get a unit curvature of their own: the
+    // gradient has no component there, so neither has the step.
     auto assemble = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& g) {
-      std::vector<Chain> M(static_cast<size_t>(nFree));
+      std::vector<Eigen::Matrix3d> M(static_cast<size_t>(nFree)), C(static_cast<size_t>(nFree));
       tbb::parallel_for(tbb::blocked_range<size_t>(0, static_cast<size_t>(nFree), 1024), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t k = r.begin(); k != r.end(); ++k) M[k] = chain(k, x, g);
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+          const Chain c = chain(k, x, g);
+          M[k] = c.M, C[k] = c.C;
+        }
       });
-      double* values = hessian.valuePtr();
-      std::fill(values, values + hessian.nonZeros(), 0.0);
-      blocks.resize(std::min(kChunk, active.size()) * 16);
-      for (size_t from = 0; from < active.size(); from += kChunk) {
-        const size_t to = std::min(active.size(), from + kChunk);
-        tbb::parallel_for(tbb::blocked_range<size_t>(from, to, 256), [&](const tbb::blocked_range<size_t>& r) {
-          for (size_t a = r.begin(); a != r.end(); ++a) {
+      hessian->assemble(
+          [&](size_t a) {
             const int t = active[a];
             const auto& G = grad[static_cast<size_t>(t)];
             Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
             for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
-            const detail::Matrix9d H9 = weight[t] * detail::untangleHessianProjected(J, eps, options.theta);
-            // J_il = Σ_k W_k[i] G(l, k): block (i, i') of H₁₂ between vertices k, k' is Gᵀ H₉(i,·; i',·) G.
-            Eigen::Matrix<double, 12, 12> H12;
-            for (int i = 0; i < 3; ++i)
-              for (int i2 = 0; i2 < 3; ++i2) {
-                const Eigen::Matrix4d B = G.transpose() * H9.block<3, 3>(3 * i, 3 * i2) * G;
-                for (int k = 0; k < 4; ++k)
-                  for (int k2 = 0; k2 < 4; ++k2) H12(3 * k + i, 3 * k2 + i2) = B(k, k2);
-              }
-            for (int i = 0; i < 4; ++i)
-              for (int j = 0; j < 4; ++j) {
-                const int ki = inRegion[T(t, i)], kj = inRegion[T(t, j)];
-                if (ki < 0 || kj < 0) continue;
-                blocks[16 * (a - from) + 4 * i + j] =
-                    M[static_cast<size_t>(ki)].M.transpose() * H12.block<3, 3>(3 * i, 3 * j) * M[static_cast<size_t>(kj)].M;
-              }
-          }
-        });
-        for (size_t a = from; a < to; ++a)  // scatter, sequentially (deterministic, no races)
-          for (int i = 0; i < 4; ++i)
-            for (int j = 0; j < 4; ++j) {
-              const int p = tetBlock[16 * a + 4 * i + j];
-              if (p < 0) continue;
-              const auto kj = static_cast<size_t>(inRegion[T(active[a], j)]);
-              const Eigen::Matrix3d& B = blocks[16 * (a - from) + 4 * i + j];
-              for (int c = 0; c < 3; ++c)
-                for (int r = 0; r < 3; ++r) values[valueIndex(kj, p, r, c)] += B(r, c);
-            }
-      }
-      // Directions the constraints remove (the sphere's normal, locked or
-      // clamped cube coordinates) get a unit curvature of their own: the
-      // gradient has no component there, so neither has the step.
-      for (size_t k = 0; k < static_cast<size_t>(nFree); ++k)
-        for (int c = 0; c < 3; ++c)
-          for (int r = 0; r < 3; ++r) values[valueIndex(k, diagPos[k], r, c)] += M[k].C(r, c);
+            return detail::vertexHessian(weight[t] * detail::untangleHessianProjected(J, eps, options.theta), G);
+          },
+          M, C);
     };
     // Minimises E_eps from x; returns the Newton iterations used.
     auto newton = [&](Eigen::VectorXd& x) {
@@ -755,25 +601,8 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       for (; it < options.maxNewtonIterations; ++it) {
         if (!options.relax && detMin() > 0) break;  // untangled (the caller confirms exactly)
         assemble(x, g);
-        auto diag = [&](Eigen::Index i) -> double& {
-          const auto k = static_cast<size_t>(i / 3);
-          const int c = static_cast<int>(i % 3);
-          return hessian.valuePtr()[valueIndex(k, diagPos[k], c, c)];
-        };
-        double maxDiag = 0;
-        for (Eigen::Index i = 0; i < n; ++i) maxDiag = std::max(maxDiag, diag(i));
         Eigen::VectorXd d;
-        bool solved = false;
-        // A tiny shift first; larger ones if the factorisation still fails.
-        for (double shift = 1e-10 * maxDiag, added = 0; shift < 1e-1 * maxDiag && !solved; shift *= 1e3) {
-          for (Eigen::Index i = 0; i < n; ++i) diag(i) += shift - added;
-          added = shift;
-          cholmod.factorize(hessian);
-          if (cholmod.info() != Eigen::Success) continue;
-          d = -cholmod.solve(g);
-          solved = cholmod.info() == Eigen::Success && d.allFinite();
-        }
-        if (!solved) d = -g;
+        if (!hessian->descent(g, d)) d = -g;
         double slope = g.dot(d);
         if (!(slope < 0)) d = -g, slope = -g.squaredNorm();
         if (!(slope < 0)) break;
@@ -817,7 +646,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       if (useNewton)
         result.newtonIterations += newton(x);
       else
-        result.lbfgsIterations += lbfgs([&](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return evaluate(y, &g); }, x,
+        result.lbfgsIterations += detail::lbfgs([&](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return evaluate(y, &g); }, x,
                                         options.maxLbfgsIterations, options.lbfgsMemory);
       const double E = evaluate(x, nullptr);
       restartSliding(x);

@@ -12,12 +12,12 @@
 // fandisk 13 s, retinal 20 s, triceratops 50 s in all. homer (109 s) passes
 // the cube too and is left out to keep the suite short. spool passes when
 // meshed with a 15° minimum dihedral angle (below); at the default meshing
-// its cube parameterization keeps 6 tets inverted (its ball map is now
-// bijective, see ball_map_realdata_slow_test's BallMapForTransport).
-// Not yet: hand (1592 tets left on the ball, 2973 on the cube). Those
-// are the open part of issue 4.
+// its final untangling leaves 6 tets inverted on the cube, and hand's 2195 on
+// the ball and 2974 on the cube: there the barrier morph from the ball map
+// (barrier_morph.h) gives the map (ParamMorphFallback below).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <iostream>
 #include <string>
 #include <tuple>
@@ -97,3 +97,39 @@ TEST_P(ParamSpoolWithoutSlivers, ValidMeasurePreservingParameterization) {
 
 INSTANTIATE_TEST_SUITE_P(Domains, ParamSpoolWithoutSlivers, ::testing::Values(ParamDomain::Cube, ParamDomain::Ball),
                          [](const auto& info) { return info.param == ParamDomain::Cube ? "cube" : "ball"; });
+
+// Where the final untangling fails, the parameterization is the ball map
+// morphed towards its result (ParamOptions::morphWhenTangled): spool at the
+// default meshing on the cube (the ball map itself keeps one tet inverted,
+// repaired for the start), hand on the ball. Both need the morph today; if
+// the untangling learns to finish them, they belong in ParamRealData.
+class ParamMorphFallback : public ::testing::TestWithParam<std::tuple<const char*, ParamDomain>> {};
+
+TEST_P(ParamMorphFallback, ValidWhereTheUntanglingFails) {
+  const auto [name, domain] = GetParam();
+  TetrahedralizeOptions meshing;
+  meshing.exactBoundary = false;
+  const TetMesh mesh = tetrahedralize(readSurface(t2stest::cgalMesh(name)), meshing, name);
+  ParamOptions o;
+  o.domain = domain;
+  const ParamResult r = parameterize(mesh, o);
+  EXPECT_TRUE(r.param.morphed) << name;
+  t2stest::expectValidParameterization(r, domain);
+  EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.05 * r.domainVolume) << name;
+  EXPECT_GT(r.parametricVolume.minCoeff(), 0) << name;
+  EXPECT_NE(std::find_if(r.warnings.begin(), r.warnings.end(),
+                         [](const std::string& w) { return w.find("param.morph") != std::string::npos; }),
+            r.warnings.end());
+  std::cout << name << (domain == ParamDomain::Cube ? " cube" : " ball") << ": morph distance " << r.param.morphDistance
+            << " target edges (max " << r.param.morphMaxDistance << "); volume ratio p1/p50/p99 " << r.param.volumeRatioP1
+            << "/" << r.param.volumeRatioP50 << "/" << r.param.volumeRatioP99 << "; seconds final untangle "
+            << r.timings.finalUntangle << " morph " << r.timings.morph << " total " << r.timings.total << std::endl;
+}
+
+INSTANTIATE_TEST_SUITE_P(Genus0, ParamMorphFallback,
+                         ::testing::Values(std::make_tuple("spool", ParamDomain::Cube),
+                                           std::make_tuple("hand", ParamDomain::Ball)),
+                         [](const auto& info) {
+                           return t2stest::testName(std::get<0>(info.param)) +
+                                  (std::get<1>(info.param) == ParamDomain::Cube ? "_cube" : "_ball");
+                         });
