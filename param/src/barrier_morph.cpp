@@ -223,13 +223,17 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
   // the PSD cone, the attraction's 2λ/ℓ² on the diagonal, both mapped to the
   // unknowns through the preconditioner and the sliding (Gauss–Newton for
   // the projections onto ∂Ω); the directions a projection removes get a unit
-  // curvature. Each accepted step is rebased: x = 0 at the new positions.
+  // curvature. The step solves it with at most options.cgIterations of
+  // Jacobi-preconditioned CG (truncated Newton), see barrier_morph.h. Each
+  // accepted step is rebased: x = 0 at the new positions.
   auto rebase = [&] {
     for (size_t k = 0; k < nFree; ++k) base.row(static_cast<Eigen::Index>(k)) = W.row(freeVerts[k]);
   };
   std::unique_ptr<detail::BlockHessian> hessian;
   if (options.method == UntangleMethod::Newton)
-    hessian = std::make_unique<detail::BlockHessian>(T, vt, freeVerts, inRegion, active);
+    hessian = std::make_unique<detail::BlockHessian>(T, vt, freeVerts, inRegion, active,
+                                                     detail::BlockHessian::Solver::ConjugateGradient,
+                                                     options.cgIterations, options.cgTolerance);
   auto newton = [&](Eigen::VectorXd& x) {
     const Eigen::Index n = x.size();
     Eigen::VectorXd g(n), gNew(n), xNew(n), d;

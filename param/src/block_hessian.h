@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include <Eigen/CholmodSupport>
+#include <Eigen/IterativeLinearSolvers>
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
 #include <algorithm>
@@ -35,12 +36,19 @@ inline Eigen::Matrix<double, 12, 12> vertexHessian(const Matrix9d& H9, const Eig
 
 class BlockHessian {
  public:
+  /// How descent() solves: CHOLMOD (exact Newton), or conjugate gradients with
+  /// Jacobi preconditioning stopped early (truncated Newton; see
+  /// barrier_morph.cpp for the measurements).
+  enum class Solver { Cholmod, ConjugateGradient };
+
   /// freeVerts: the free vertices (unknown block k = inRegion[freeVerts[k]]);
   /// inRegion[v]: v's block or −1 (held); active: the tets of T with a free
   /// vertex, in the order tetHessian(a) is asked for below.
   BlockHessian(const Eigen::MatrixX4i& T, const VertexTets& vt, const std::vector<int>& freeVerts,
-               const std::vector<int>& inRegion, const std::vector<int>& active)
-      : T_(T), inRegion_(inRegion), active_(active), nFree_(freeVerts.size()) {
+               const std::vector<int>& inRegion, const std::vector<int>& active, Solver solver = Solver::Cholmod,
+               int cgIterations = 50, double cgTolerance = 1e-3)
+      : T_(T), inRegion_(inRegion), active_(active), nFree_(freeVerts.size()), solver_(solver),
+        cgIterations_(cgIterations), cgTolerance_(cgTolerance) {
     offset_.assign(nFree_ + 1, 0);
     std::vector<std::vector<int>> lists(nFree_);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nFree_, 512), [&](const tbb::blocked_range<size_t>& r) {
@@ -86,7 +94,7 @@ class BlockHessian {
     });
     diagPos_.resize(nFree_);
     for (size_t k = 0; k < nFree_; ++k) diagPos_[k] = position(static_cast<int>(k), static_cast<int>(k));
-    cholmod_.analyzePattern(H_);
+    if (solver_ == Solver::Cholmod) cholmod_.analyzePattern(H_);
   }
 
   /// H = Σ_a Σ_{i,j} M_{k_i}ᵀ H12_a(i, j) M_{k_j} + Σ_k D_k on block (k, k):
@@ -130,10 +138,23 @@ class BlockHessian {
         for (int r = 0; r < 3; ++r) values[valueIndex(k, diagPos_[k], r, c)] += D[k](r, c);
   }
 
-  /// d = −H⁻¹ g. A tiny diagonal shift first (10⁻¹⁰ of the largest diagonal
+  /// d = −H⁻¹ g. Conjugate gradients: from d = 0, at most cgIterations or
+  /// to a residual of cgTolerance relative to |g| (a descent direction
+  /// whenever H is positive definite); false if not finite. CHOLMOD: a tiny
+  /// diagonal shift first (10⁻¹⁰ of the largest diagonal
   /// entry), larger ones while the factorisation fails; false when even 10⁻¹
   /// of it fails (d untouched). Changes H's diagonal.
   bool descent(const Eigen::VectorXd& g, Eigen::VectorXd& d) {
+    if (solver_ == Solver::ConjugateGradient) {
+      Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg;
+      cg.setTolerance(cgTolerance_);
+      cg.setMaxIterations(cgIterations_);
+      cg.compute(H_);
+      Eigen::VectorXd s = -cg.solve(g);
+      if (!s.allFinite()) return false;
+      d = std::move(s);
+      return true;
+    }
     const auto n = static_cast<Eigen::Index>(3 * nFree_);
     auto diag = [&](Eigen::Index i) -> double& {
       const auto k = static_cast<size_t>(i / 3);
@@ -172,6 +193,9 @@ class BlockHessian {
   const std::vector<int>& inRegion_;
   const std::vector<int>& active_;
   size_t nFree_;
+  Solver solver_;
+  int cgIterations_;
+  double cgTolerance_;
   std::vector<int> offset_, nbr_;       // free neighbours of each free vertex (itself included), sorted
   std::vector<Eigen::Index> colStart_;  // first value of block column k
   std::vector<int> tetBlock_;           // per active tet, 16 entries: position of block (i, j) in nbr, or −1

@@ -431,8 +431,9 @@ Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure)
 // surface (the largest coordinate set exactly to 0 or 1). Every vertex moves
 // along its own ray from the centre, so the cones over boundary triangles
 // keep their sign; tets that the stretch folds where it bends (the planes
-// |x_i| = |x_j|) are untangled (Newton) with the boundary sliding on the cube,
-// across its edges.
+// |x_i| = |x_j|) are untangled (Newton: L-BFGS left spool.off's 5 of them,
+// and Newton from there 2) with the boundary sliding on the cube, across its
+// edges.
 Eigen::MatrixX3d morphStart(const TetMesh& mesh, const Eigen::MatrixX3d& ballU, const Eigen::MatrixX3i& boundaryFaces,
                             ParamDomain domain, const UntangleOptions& base) {
   const std::vector<bool> none(static_cast<size_t>(ballU.rows()), false);
@@ -664,6 +665,9 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         report(0.95, "morph from the ball map");
         UntangleOptions startOptions;
         startOptions.progress = untangleOptions.progress;
+        // (Shorter ε rounds, to reach the local max-min repair sooner, left
+        // spool.off's start with 6 tets inverted: its default rounds take
+        // 50 s of the fallback's 58.)
         const Eigen::MatrixX3d start = morphStart(mesh, r.ballU, r.boundaryFaces, options.domain, startOptions);
         if (start.rows() == nv) {
           BarrierMorphOptions morph;

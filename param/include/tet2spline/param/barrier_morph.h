@@ -25,16 +25,23 @@
 /// from (½,½,½) through y meets it, so a vertex may cross a cube edge). The
 /// cones over those faces join the barrier, so no boundary triangle flips.
 ///
-/// Measured (2 cores, OpenBLAS), from the ball map towards the final
-/// untangler's result (thousands of tets still inverted), λ = 1, 10, 100,
-/// 1000 with at most 30 Newton iterations each: hand.off on the ball
-/// (12.7k vertices) 8.0 -> 0.43 target edges (rms) in 48 s, on the cube
-/// (from the stretched ball map) 28.7 -> 3.5 in about 50 s; spool.off on the
-/// cube 0.25 in 25 s. A Newton iteration costs one CHOLMOD factorisation
-/// (0.3 s for hand's 38k unknowns; 0.5 s with ATLAS's BLAS); incomplete
-/// Cholesky CG took 200-400 iterations and longer. Steps stay short (1/16
-/// to 1/2) while the target is far: the barrier, not the model, limits
-/// them.
+/// Measured (2 cores), from the ball map towards the final untangler's
+/// result (thousands of tets still inverted), λ = 1, 10, 100, 1000 with at
+/// most 30 Newton iterations each, on hand.off (12.7k vertices, 53k tets):
+///
+///   linear solve per Newton step       ball: rms / s    cube: rms / s
+///   CHOLMOD (exact)                    0.42 / 48        3.5 / 73 (ATLAS BLAS)
+///   Jacobi CG, at most 100 iterations  0.39 / 25        0.62 / 23
+///   Jacobi CG, at most 50 (default)    0.39 / 18        0.62 / 19
+///   Jacobi CG, at most 30              0.39 / 17
+///
+/// (rms: distance to the target in target edges, from 8.0 on the ball and
+/// 28.7 on the cube; incomplete-Cholesky CG needed 200-400 iterations at
+/// 10⁻² and took longer than CHOLMOD). The truncated steps do better: the
+/// exact Newton step is dominated by the stiffest barrier terms, and the
+/// line search cut it to 1/16 .. 1/2. A CHOLMOD factorisation grows as the
+/// mesh's fill does: 20 s per Newton step on a 69k-vertex ball grid, against
+/// 1.2 s with CG.
 
 #include <Eigen/Core>
 #include <vector>
@@ -48,11 +55,14 @@ namespace tet2spline {
 struct BarrierMorphOptions {
   std::vector<double> attraction = {1, 10, 100, 1000};  ///< λ of each run, in order
   /// Newton (default): projected Newton, each tet's Hessian projected onto
-  /// the PSD cone (untangle.h), factorised with CHOLMOD. L-BFGS stalls at the
-  /// barrier here: on hand.off's cube map 1200 iterations moved the vertices
-  /// from 28.0 to 27.4 target edges (rms) from their targets.
+  /// the PSD cone (untangle.h), solved inexactly by conjugate gradients.
+  /// L-BFGS stalls at the barrier here: on hand.off's cube map 1200
+  /// iterations moved the vertices from 28.0 to 27.4 target edges (rms) from
+  /// their targets.
   UntangleMethod method = UntangleMethod::Newton;
   int maxNewtonIterations = 30;   ///< per run
+  int cgIterations = 50;          ///< per Newton step, at most (Jacobi-preconditioned CG)
+  double cgTolerance = 1e-3;      ///< CG stops at this residual relative to the gradient
   int maxLbfgsIterations = 300;   ///< per run
   int lbfgsMemory = 10;
   Eigen::MatrixX3i sphereFaces;   ///< outward boundary triangles on the unit sphere (slide on it)
