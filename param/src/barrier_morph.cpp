@@ -169,8 +169,7 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
           for (size_t a = r.begin(); a != r.end(); ++a) {
             const int t = active[a];
             const auto& G = grad[static_cast<size_t>(t)];
-            Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-            for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
+            const Eigen::Matrix3d J = detail::tetJacobian(W, T, t, G);
             const double D = J.determinant();
             if (!(D > 0)) return std::numeric_limits<double>::infinity();  // the barrier
             Eigen::Matrix3d dJ;
@@ -272,29 +271,13 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
           [&](size_t a) {
             const int t = active[a];
             const auto& G = grad[static_cast<size_t>(t)];
-            Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-            for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
+            const Eigen::Matrix3d J = detail::tetJacobian(W, T, t, G);
             return detail::vertexHessian(detail::untangleHessianProjected(J, 0, 0), G);
           },
           M, C);
       if (!hessian->descent(g, d)) d = -g;
-      double slope = g.dot(d);
-      if (!(slope < 0)) d = -g, slope = -g.squaredNorm();
-      if (!(slope < 0)) break;
-      double step = 1, fNew = f;
-      bool accepted = false;
-      for (int ls = 0; ls < 40; ++ls, step *= 0.5) {
-        xNew = x + step * d;
-        fNew = evaluate(xNew, &gNew);
-        if (std::isfinite(fNew) && fNew <= f + 1e-4 * step * slope) {
-          accepted = true;
-          break;
-        }
-      }
-      if (!accepted) {
-        evaluate(x, &g);  // restore W
-        break;
-      }
+      double fNew = f, slope = 0;
+      if (!detail::armijoStep(evaluate, x, g, d, f, xNew, gNew, fNew, &slope)) break;
       const double decrease = f - fNew;
       rebase();
       x.setZero();

@@ -1,6 +1,6 @@
 #pragma once
-// Internal: a compact L-BFGS with Armijo backtracking, for the untangler and
-// the barrier morph. A step whose value is not finite (a barrier crossed) is
+// Internal: a compact L-BFGS with Armijo backtracking, and the damped step of
+// the projected Newton iterations, for the untangler and the barrier morph. A step whose value is not finite (a barrier crossed) is
 // rejected like one that does not decrease enough.
 #include <Eigen/Core>
 #include <cmath>
@@ -66,6 +66,29 @@ inline int lbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
     }
   }
   return it;
+}
+
+// One damped Newton step: along d (along −g when d is not a descent
+// direction), Armijo backtracking from step 1, halved at most 40 times; a
+// value that is not finite (a barrier crossed) is rejected like one that does
+// not decrease enough. On success xNew, gNew and fNew hold the accepted point,
+// where evaluate was called last, and *slope the directional derivative g·d;
+// otherwise (no descent direction, or no step accepted) it evaluates at x
+// again, to restore the caller's state, and returns false.
+template <class Evaluate>
+inline bool armijoStep(Evaluate&& evaluate, const Eigen::VectorXd& x, Eigen::VectorXd& g, Eigen::VectorXd& d, double f,
+                       Eigen::VectorXd& xNew, Eigen::VectorXd& gNew, double& fNew, double* slope) {
+  *slope = g.dot(d);
+  if (!(*slope < 0)) d = -g, *slope = -g.squaredNorm();
+  if (!(*slope < 0)) return false;
+  double step = 1;
+  for (int ls = 0; ls < 40; ++ls, step *= 0.5) {
+    xNew = x + step * d;
+    fNew = evaluate(xNew, &gNew);
+    if (std::isfinite(fNew) && fNew <= f + 1e-4 * step * *slope) return true;
+  }
+  evaluate(x, &g);
+  return false;
 }
 
 }  // namespace tet2spline::detail

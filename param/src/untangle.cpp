@@ -465,10 +465,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
             for (size_t a = r.begin(); a != r.end(); ++a) {
               const int t = active[a];
               const auto& G = grad[static_cast<size_t>(t)];
-              // Edge vectors, not positions: no cancellation where the tet
-              // is 10⁻⁸ wide at |u| = 1.
-              Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-              for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
+              const Eigen::Matrix3d J = detail::tetJacobian(W, T, t, G);
               det[a] = J.determinant();
               Eigen::Matrix3d dJ;
               sum += weight[t] * detail::untangleEnergy(J, eps, options.theta, g ? &dJ : nullptr);
@@ -586,8 +583,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
           [&](size_t a) {
             const int t = active[a];
             const auto& G = grad[static_cast<size_t>(t)];
-            Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-            for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
+            const Eigen::Matrix3d J = detail::tetJacobian(W, T, t, G);
             return detail::vertexHessian(weight[t] * detail::untangleHessianProjected(J, eps, options.theta), G);
           },
           M, C);
@@ -603,23 +599,8 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         assemble(x, g);
         Eigen::VectorXd d;
         if (!hessian->descent(g, d)) d = -g;
-        double slope = g.dot(d);
-        if (!(slope < 0)) d = -g, slope = -g.squaredNorm();
-        if (!(slope < 0)) break;
-        double step = 1, fNew = f;
-        bool accepted = false;
-        for (int ls = 0; ls < 40; ++ls, step *= 0.5) {
-          xNew = x + step * d;
-          fNew = evaluate(xNew, &gNew);
-          if (std::isfinite(fNew) && fNew <= f + 1e-4 * step * slope) {
-            accepted = true;
-            break;
-          }
-        }
-        if (!accepted) {
-          evaluate(x, &g);  // restore W and det
-          break;
-        }
+        double fNew = f, slope = 0;
+        if (!detail::armijoStep(evaluate, x, g, d, f, xNew, gNew, fNew, &slope)) break;  // (W and det restored)
         x.swap(xNew);
         g.swap(gNew);
         const double decrease = f - fNew;

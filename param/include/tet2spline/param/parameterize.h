@@ -135,12 +135,13 @@ struct ParamOptions {
   /// map (stretched onto the cube for the cube) towards the untangler's
   /// result behind a barrier (barrier_morph.h), so the map is bijective
   /// whatever the composition folded; report keys param.morph.*. Measured:
-  /// hand.off, 2974 tets left on the cube and 2195 on the ball, ends with
-  /// none (volume ratio p1/p50/p99 0.32/0.99/2.6e3 on the cube, 0.27/1.11/134
-  /// on the ball); spool.off (6 left on the cube) with none, p50 0.71. The
-  /// tets with the largest ratios touch the boundary and are as large in
-  /// the untangler's result. hand's cube spline then fits with no negative
-  /// Gauss point (RMS 0.0034 of the diagonal).
+  /// hand.off, about 2950 tets left on the cube and 2195 on the ball, ends
+  /// with none (volume ratio p1/p50/p99 0.22/1.09/369 on the cube,
+  /// 0.26/1.11/130 on the ball); spool.off (6 left on the cube) with none,
+  /// p50 0.70. The tets with the largest ratios touch the boundary and are as
+  /// large in the untangler's result. hand's cube spline then fits with no
+  /// negative Gauss point (RMS 0.0061 of the diagonal, boundary Hausdorff
+  /// 0.029).
   bool morphWhenTangled = true;
   bool splitChords = true;             ///< step 1 (required for the cube)
   ProgressCallback progress = {};      ///< fraction over the whole stage; false stops
