@@ -443,6 +443,7 @@ Eigen::MatrixX3d morphStart(const TetMesh& mesh, const Eigen::MatrixX3d& ballU, 
   if (countNonPositiveTets(ball, mesh.T) > 0) {
     o.sphereFaces = boundaryFaces;
     UntangleResult u = untangle(mesh.V, mesh.T, ball, none, o);
+    if (u.stopped) throw Status::failure("stopped during the morph's start");
     if (u.invertedAfter > 0 || u.flippedBoundaryTriangles > 0) return {};
     ball = std::move(u.U);
     o.sphereFaces.resize(0, 3);
@@ -467,6 +468,7 @@ Eigen::MatrixX3d morphStart(const TetMesh& mesh, const Eigen::MatrixX3d& ballU, 
   o.cubeFaces = boundaryFaces;
   o.cubeAcrossEdges = true;
   const UntangleResult u = untangle(mesh.V, mesh.T, U, none, o);
+  if (u.stopped) throw Status::failure("stopped during the morph's start");
   if (u.invertedAfter > 0 || u.flippedBoundaryTriangles > 0) return {};
   return u.U;
 }
