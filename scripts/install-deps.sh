@@ -9,11 +9,6 @@ packages=(
   libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev libocct-data-exchange-dev
   libgtest-dev libcli11-dev nlohmann-json3-dev zlib1g-dev
   gmsh tetgen
-  # A fast BLAS for CHOLMOD's supernodal factorisations (the transport's and
-  # the barrier morph's Newton steps, Ceres in the fit); it takes over the
-  # libblas.so.3 alternative from the reference BLAS or ATLAS (a morph
-  # factorisation of hand.off: 0.5 s with ATLAS, 0.3 s with it).
-  libopenblas0-pthread
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -30,15 +30,18 @@
 /// most 30 Newton iterations each, on hand.off (12.7k vertices, 53k tets):
 ///
 ///   linear solve per Newton step       ball: rms / s    cube: rms / s
-///   CHOLMOD (exact)                    0.42 / 48        3.5 / 73 (ATLAS BLAS)
+///   CHOLMOD (exact)                    0.42 / 48 (*)    3.5 / 73
 ///   Jacobi CG, at most 100 iterations  0.39 / 25        0.62 / 23
 ///   Jacobi CG, at most 50 (default)    0.39 / 18        0.62 / 19
 ///   Jacobi CG, at most 30              0.39 / 17
 ///
 /// (rms: distance to the target in target edges, from 8.0 on the ball and
 /// 28.7 on the cube; incomplete-Cholesky CG needed 200-400 iterations at
-/// 10⁻² and took longer than CHOLMOD). The truncated steps do better: the
-/// exact Newton step is dominated by the stiffest barrier terms, and the
+/// 10⁻² and took longer than CHOLMOD; (*) with OpenBLAS, whose
+/// factorisations took 0.3 s here against ATLAS's 0.5 s, but whose rounding
+/// left spool.off's ball map with one tet inverted, so the project keeps
+/// the BLAS its packages bring, ATLAS on this machine). The truncated steps
+/// do better: the exact Newton step is dominated by the stiffest barrier terms, and the
 /// line search cut it to 1/16 .. 1/2. A CHOLMOD factorisation grows as the
 /// mesh's fill does: 20 s per Newton step on a 69k-vertex ball grid, against
 /// 1.2 s with CG.
