@@ -41,8 +41,8 @@
 /// factorisations took 0.3 s here against ATLAS's 0.5 s, but whose rounding
 /// left spool.off's ball map with one tet inverted, so the project keeps
 /// the BLAS its packages bring, ATLAS on this machine). The truncated steps
-/// do better: the exact Newton step is dominated by the stiffest barrier terms, and the
-/// line search cut it to 1/16 .. 1/2. A CHOLMOD factorisation grows as the
+/// do better: the exact Newton step is dominated by the stiffest barrier
+/// terms, and the line search cut it to 1/16 .. 1/2. A CHOLMOD factorisation grows as the
 /// mesh's fill does: 20 s per Newton step on a 69k-vertex ball grid, against
 /// 1.2 s with CG.
 

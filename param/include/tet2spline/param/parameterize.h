@@ -137,8 +137,8 @@ struct ParamOptions {
   /// whatever the composition folded; report keys param.morph.*. Measured:
   /// hand.off, about 2950 tets left on the cube and 2195 on the ball, ends
   /// with none (volume ratio p1/p50/p99 0.22/1.09/369 on the cube,
-  /// 0.26/1.11/130 on the ball); spool.off (6 left on the cube) with none,
-  /// p50 0.70. The tets with the largest ratios touch the boundary and are as
+  /// 0.26/1.11/122 on the ball); spool.off (6 left on the cube) with none,
+  /// p50 0.75. The tets with the largest ratios touch the boundary and are as
   /// large in the untangler's result. hand's cube spline then fits with no
   /// negative Gauss point (RMS 0.0061 of the diagonal, boundary Hausdorff
   /// 0.029).
