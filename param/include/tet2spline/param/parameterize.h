@@ -136,12 +136,12 @@ struct ParamOptions {
   /// result behind a barrier (barrier_morph.h), so the map is bijective
   /// whatever the composition folded; report keys param.morph.*. Measured:
   /// hand.off, about 2950 tets left on the cube and 2195 on the ball, ends
-  /// with none (volume ratio p1/p50/p99 0.22/1.09/369 on the cube,
+  /// with none (volume ratio p1/p50/p99 0.22/1.09/269 on the cube,
   /// 0.26/1.11/122 on the ball); spool.off (6 left on the cube) with none,
   /// p50 0.75. The tets with the largest ratios touch the boundary and are as
   /// large in the untangler's result. hand's cube spline then fits with no
-  /// negative Gauss point (RMS 0.0061 of the diagonal, boundary Hausdorff
-  /// 0.029).
+  /// negative Gauss point (RMS 0.0060 of the diagonal, boundary Hausdorff
+  /// 0.028).
   bool morphWhenTangled = true;
   bool splitChords = true;             ///< step 1 (required for the cube)
   ProgressCallback progress = {};      ///< fraction over the whole stage; false stops
