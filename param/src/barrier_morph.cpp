@@ -137,6 +137,11 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
   BarrierMorphResult result;
   distances(&result.startDistance, nullptr);
   const size_t nFree = freeVerts.size();
+  if (nFree == 0) {  // nothing moves
+    result.U = start;
+    distances(&result.distance, &result.maxDistance);
+    return result;
+  }
   Eigen::MatrixX3d base(static_cast<Eigen::Index>(nFree), 3);
   Eigen::VectorXd precond(nvx);
   std::vector<Eigen::Matrix<double, 3, 4>> tetGrad(active.size());

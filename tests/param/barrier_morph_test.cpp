@@ -130,6 +130,18 @@ TEST(BarrierMorph, KeepsFixedVerticesBitwise) {
   EXPECT_LT(r.distance, r.startDistance);
 }
 
+TEST(BarrierMorph, EverythingFixedIsTheStart) {
+  const FoldedBall b = foldedBall(3);
+  for (const UntangleMethod method : {UntangleMethod::Lbfgs, UntangleMethod::Newton}) {
+    BarrierMorphOptions o;
+    o.method = method;
+    const BarrierMorphResult r =
+        morphTowards(b.mesh.V, b.mesh.T, b.mesh.V, b.target, std::vector<bool>(static_cast<size_t>(b.mesh.V.rows()), true), o);
+    EXPECT_EQ(r.U, b.mesh.V);
+    EXPECT_EQ(r.distance, r.startDistance);
+  }
+}
+
 TEST(BarrierMorph, RejectsAnInvalidStartAndBadOptions) {
   const FoldedBall b = foldedBall(3);
   const std::vector<bool> none(static_cast<size_t>(b.mesh.V.rows()), false);
