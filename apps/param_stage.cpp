@@ -92,10 +92,9 @@ void addParamReport(json& j, const ParamResult& r) {
   setPath(j, "param.boundary_max_distance", r.param.boundaryMaxDistance);
   setPath(j, "param.corner_vertices", r.param.cornerVertices);
   setPath(j, "param.edge_vertices", r.param.edgeVertices);
-  setPath(j, "param.morph.used", r.param.morphed);
-  if (r.param.morphed)
-    setPath(j, "param.morph", json{{"used", true}, {"rms_distance", r.param.morphDistance},
-                                   {"max_distance", r.param.morphMaxDistance}});
+  json morph{{"used", r.param.morphed}};
+  if (r.param.morphed) morph["rms_distance"] = r.param.morphDistance, morph["max_distance"] = r.param.morphMaxDistance;
+  setPath(j, "param.morph", morph);
   setPath(j, "param.volume_ratio", json{{"p1", r.param.volumeRatioP1}, {"p50", r.param.volumeRatioP50},
                                         {"p99", r.param.volumeRatioP99}, {"min", r.param.volumeRatioMin},
                                         {"max", r.param.volumeRatioMax}});

@@ -16,6 +16,7 @@
 
 #include "block_hessian.h"
 #include "lbfgs.h"
+#include "sliding.h"
 #include "spd_solver.h"
 #include "tet2spline/param/topology.h"
 #include "untangle_energy.h"
@@ -152,12 +153,9 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
     if (slide[static_cast<size_t>(v)] == kSphere) {
       W.row(v) = (y / y.norm()).transpose();
     } else if (slide[static_cast<size_t>(v)] == kCube) {  // where the ray from the centre leaves the cube
-      const Eigen::Vector3d d = y - apex.transpose();
-      Eigen::Index axis = 0;
-      const double extent = d.cwiseAbs().maxCoeff(&axis);
-      if (!(extent > 0)) return;
-      for (int j = 0; j < 3; ++j) W(v, j) = std::clamp(0.5 + 0.5 * d[j] / extent, 0.0, 1.0);
-      W(v, axis) = d[axis] > 0 ? 1 : 0;
+      const detail::CubeRay r = detail::cubeRay(y, apex.transpose());
+      if (!(r.extent > 0)) return;  // at the centre: no ray; keep the last position
+      W.row(v) = detail::cubeRayPoint(r);
     } else {
       W.row(v) = y.transpose();
     }
@@ -200,21 +198,11 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
             s += tetGrad[static_cast<size_t>(a)].col(vt.corner[static_cast<size_t>(e)] % 4);
           }
           const Eigen::Vector3d y = unknown(k, x);
-          if (slide[static_cast<size_t>(v)] == kSphere) {  // through y ↦ y/|y|
-            const double len = y.norm();
-            const Eigen::Vector3d n = y / len;
-            s = (s - n * n.dot(s)) / len;
-          } else if (slide[static_cast<size_t>(v)] == kCube) {  // through p(y) = c + d ½/|d_a|
-            const Eigen::Vector3d d = y - apex.transpose();
-            Eigen::Index axis = 0;
-            const double extent = d.cwiseAbs().maxCoeff(&axis);
-            if (extent > 0) {
-              const double dg = d.dot(s);
-              s *= 0.5 / extent;
-              s[axis] -= 0.5 / extent * dg / d[axis];
-            } else {
-              s.setZero();
-            }
+          if (slide[static_cast<size_t>(v)] == kSphere) {
+            s = detail::sphereGradient(y, s);
+          } else if (slide[static_cast<size_t>(v)] == kCube) {
+            const detail::CubeRay r = detail::cubeRay(y, apex.transpose());
+            s = r.extent > 0 ? detail::cubeRayGradient(r, s) : Eigen::Vector3d::Zero();
           }
           g->segment<3>(3 * static_cast<Eigen::Index>(k)) = precond[v] * s;
         }
@@ -252,22 +240,11 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
           M[k] = precond[v] * Eigen::Matrix3d::Identity();
           C[k].setZero();
           if (slide[static_cast<size_t>(v)] == kSphere) {
-            const double len = y.norm();
-            const Eigen::Vector3d nrm = y / len;
-            C[k] = nrm * nrm.transpose();
-            M[k] = precond[v] / len * (Eigen::Matrix3d::Identity() - C[k]);
+            detail::sphereLinearisation(y, precond[v], M[k], C[k]);
           } else if (slide[static_cast<size_t>(v)] == kCube) {
-            const Eigen::Vector3d dir = y - apex.transpose();
-            Eigen::Index axis = 0;
-            const double extent = dir.cwiseAbs().maxCoeff(&axis);
-            if (extent > 0) {
-              C[k] = dir * dir.transpose() / dir.squaredNorm();  // along the ray p(y) does not change
-              Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
-              P.col(axis) -= dir / dir[axis];
-              M[k] = precond[v] * 0.5 / extent * P;
-            } else {
-              M[k].setZero(), C[k].setIdentity();
-            }
+            const detail::CubeRay r = detail::cubeRay(y, apex.transpose());
+            if (r.extent > 0) detail::cubeRayLinearisation(r, precond[v], M[k], C[k]);
+            else M[k].setZero(), C[k].setIdentity();
           }
           C[k] += M[k].transpose() * (2 * lambda * invEllSq[v]) * M[k];
         }

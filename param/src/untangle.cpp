@@ -16,6 +16,7 @@
 
 #include "block_hessian.h"
 #include "lbfgs.h"
+#include "sliding.h"
 #include "spd_solver.h"
 #include "tet2spline/param/topology.h"
 #include "untangle_energy.h"
@@ -264,20 +265,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       locks[v] = lock;
       if (options.cubeAcrossEdges && __builtin_popcount(lock) == 1) slide[v] = kCubeRadial;
     }
-  // A radially sliding cube vertex (kCubeRadial) at unknown position y: the
-  // ray from the centre along d = y − c leaves the cube through the face of
-  // the largest |d_axis| = extent, at c + d ½/extent.
-  struct CubeRay {
-    Eigen::Vector3d d;
-    Eigen::Index axis = 0;
-    double extent = 0;
-  };
-  auto cubeRay = [&](const Eigen::Vector3d& y) {
-    CubeRay r;
-    r.d = y - apex.transpose();
-    r.extent = r.d.cwiseAbs().maxCoeff(&r.axis);
-    return r;
-  };
+  // A radially sliding cube vertex (kCubeRadial) at unknown position y: where
+  // the ray from the centre through y leaves the cube (sliding.h).
+  auto cubeRay = [&](const Eigen::Vector3d& y) { return detail::cubeRay(y, apex.transpose()); };
   auto positive = [&](Eigen::Index t) { return positiveTet(W, T, t); };
   auto countBad = [&](Eigen::Index from, Eigen::Index to) {
     int bad = 0;
@@ -443,10 +433,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         for (int d = 0; d < 3; ++d)
           W(v, d) = (locks[v] >> d) & 1 ? base(static_cast<Eigen::Index>(k), d) : std::clamp(y[d], 0.0, 1.0);
       } else if (slide[v] == kCubeRadial) {  // onto the face that the ray from the centre meets, exactly
-        const CubeRay r = cubeRay(y);
+        const detail::CubeRay r = cubeRay(y);
         if (!(r.extent > 0)) return;  // at the centre: no ray; keep the last position
-        for (int j = 0; j < 3; ++j) W(v, j) = std::clamp(0.5 + 0.5 * r.d[j] / r.extent, 0.0, 1.0);
-        W(v, r.axis) = r.d[r.axis] > 0 ? 1 : 0;
+        W.row(v) = detail::cubeRayPoint(r);
       } else {
         W.row(v) = y.transpose();
       }
@@ -486,18 +475,10 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               s += tetGrad[static_cast<size_t>(activeIndex[vt.corner[e] / 4])].col(vt.corner[e] % 4);
             const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
             if (slide[v] == kSphere) {  // chain rule through y ↦ y/|y|
-              const double len = y.norm();
-              const Eigen::Vector3d n = y / len;
-              s = (s - n * n.dot(s)) / len;
-            } else if (slide[v] == kCubeRadial) {  // chain rule through p(y): ½/|d_a| (I − d e_aᵀ/d_a)
-              const CubeRay r = cubeRay(y);
-              if (r.extent > 0) {
-                const double dg = r.d.dot(s);
-                s *= 0.5 / r.extent;
-                s[r.axis] -= 0.5 / r.extent * dg / r.d[r.axis];
-              } else {
-                s.setZero();
-              }
+              s = detail::sphereGradient(y, s);
+            } else if (slide[v] == kCubeRadial) {  // chain rule through the ray's exit point
+              const detail::CubeRay r = cubeRay(y);
+              s = r.extent > 0 ? detail::cubeRayGradient(r, s) : Eigen::Vector3d::Zero();
             } else if (slide[v] == kCube) {  // chain rule through the lock and the clamp
               // Beyond a bound the clamp makes E flat in that coordinate; at
               // a bound that descent would push further out its derivative
@@ -549,18 +530,10 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
       Chain c{precond[v] * Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero()};
       if (slide[v] == kSphere) {
-        const double len = y.norm();
-        const Eigen::Vector3d nrm = y / len;
-        c.C = nrm * nrm.transpose();
-        c.M = precond[v] / len * (Eigen::Matrix3d::Identity() - c.C);
+        detail::sphereLinearisation(y, precond[v], c.M, c.C);
       } else if (slide[v] == kCubeRadial) {
-        const CubeRay r = cubeRay(y);
-        if (r.extent > 0) {
-          c.C = r.d * r.d.transpose() / r.d.squaredNorm();  // the ray: p(y) does not change along it
-          Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
-          P.col(r.axis) -= r.d / r.d[r.axis];
-          c.M = precond[v] * 0.5 / r.extent * P;
-        }
+        const detail::CubeRay r = cubeRay(y);
+        if (r.extent > 0) detail::cubeRayLinearisation(r, precond[v], c.M, c.C);
       } else if (slide[v] == kCube) {
         for (int d = 0; d < 3; ++d)  // locked, or held at a bound (the gradient's active set)
           if ((locks[v] >> d) & 1 || g[3 * static_cast<Eigen::Index>(k) + d] == 0) c.M(d, d) = 0, c.C(d, d) = 1;
