@@ -631,11 +631,23 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         untangleOptions.cubeFaces = r.boundaryFaces;
         untangleOptions.cubeLocks = locks;
       }
-      UntangleResult untangled = untangle(mesh.V, mesh.T, r.U, fixed, untangleOptions);
+      // The work budget over the phases (finalUntangleWork): each gets what
+      // the ones before left.
+      const double budget = options.morphWhenTangled && options.finalUntangleWork > 0
+                                ? options.finalUntangleWork * static_cast<double>(mesh.numTets())
+                                : 0;
+      double spent = 0;
+      auto runPhase = [&](const Eigen::MatrixX3d& from) {
+        untangleOptions.maxTetEvaluations = budget > 0 ? std::max(1.0, budget - spent) : 0;
+        UntangleResult u = untangle(mesh.V, mesh.T, from, fixed, untangleOptions);
+        spent += u.tetEvaluations;
+        return u;
+      };
+      UntangleResult untangled = runPhase(r.U);
       r.param.invertedTetsBeforeUntangling = untangled.invertedBefore;
       // (the untangler counts the flipped boundary triangles, as cones from apex)
       const int flippedOnCube = options.domain == ParamDomain::Cube ? untangled.flippedBoundaryTriangles : 0;
-      if (untangled.invertedAfter > 0 || flippedOnCube > 0) {
+      if ((untangled.invertedAfter > 0 || flippedOnCube > 0) && !untangled.budgetExhausted && !untangled.stopped) {
         // Let the whole boundary slide on ∂Ω (the faces are set above), flips
         // of its triangles kept out: on the sphere, or on the cube's faces and
         // edges with the coordinates the placement pinned kept (corners never
@@ -644,20 +656,22 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         untangleOptions.rings = UntangleOptions().rings;  // sliding needs the wider, longer default runs
         untangleOptions.maxLbfgsIterations = UntangleOptions().maxLbfgsIterations;
         untangleOptions.regionRounds = UntangleOptions().regionRounds;
-        untangled = untangle(mesh.V, mesh.T, untangled.U, fixed, untangleOptions);
-        if (options.domain == ParamDomain::Cube && (untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0)) {
+        untangled = runPhase(untangled.U);
+        if (options.domain == ParamDomain::Cube && (untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) &&
+            !untangled.budgetExhausted && !untangled.stopped) {
           // Still tangled: a face vertex may be on the wrong side of a cube
           // edge (the placement decides each vertex's face once), which no
           // sliding within that face repairs; now face vertices may cross
           // onto a neighbouring face. Only as a last resort: as the default
           // it lowered fandisk's median volume ratio from 0.91 to 0.81.
           untangleOptions.cubeAcrossEdges = true;
-          untangled = untangle(mesh.V, mesh.T, untangled.U, fixed, untangleOptions);
+          untangled = runPhase(untangled.U);
         }
       }
       r.timings.finalUntangle = secondsSince(t0);
+      if (untangled.stopped) throw Status::failure("stopped during the final untangling");
       if ((untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) && options.morphWhenTangled &&
-          r.sphere.flippedTriangles == 0 && !untangled.stopped) {
+          r.sphere.flippedTriangles == 0) {
         // The composition folds more than untangling repairs: start again
         // from the bijective ball map (stretched onto the cube) and move it
         // towards the untangler's result, which is bijective almost
@@ -684,7 +698,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
           r.param.morphMaxDistance = morphed.maxDistance;
           r.warnings.push_back(
               "the transport's composition could not be untangled (" + std::to_string(untangled.invertedAfter) +
-              " tets left inverted); the parameterization is the ball map moved towards it without inverting a tet "
+              " tets left inverted" + (untangled.budgetExhausted ? " when its work budget was spent" : "") + "); the parameterization is the ball map moved towards it without inverting a tet "
               "(param.morph: root mean square distance " + formatDouble(morphed.distance) + " target edges)");
           untangled.U = std::move(morphed.U);
           untangled.invertedAfter = countNonPositiveTets(untangled.U, mesh.T);

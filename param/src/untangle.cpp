@@ -11,7 +11,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
+#include <string>
 #include <memory>
 
 #include "block_hessian.h"
@@ -24,6 +26,13 @@
 namespace tet2spline {
 
 namespace {
+
+// Work done so far, in evaluations of the whole mesh (tet evaluations / #tets).
+std::string formatWork(double tetEvaluations, Eigen::Index nt) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", nt > 0 ? tetEvaluations / static_cast<double>(nt) : 0.0);
+  return buf;
+}
 
 // Whether tet t of T is positively oriented at positions W, exactly.
 bool positiveTet(const Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, Eigen::Index t) {
@@ -446,6 +455,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
 
     const bool holdAtBounds = options.method == UntangleMethod::Newton;
     auto evaluate = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) -> double {
+      result.tetEvaluations += static_cast<double>(active.size());
       for (size_t k = 0; k < freeVerts.size(); ++k)
         place(k, unknown(k) + precond[freeVerts[k]] * x.segment<3>(3 * static_cast<Eigen::Index>(k)));
       const double E = tbb::parallel_deterministic_reduce(
@@ -611,9 +621,14 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
           !options.progress(-1, "untangle: eps " + std::to_string(eps) + ", min det " + std::to_string(dmin) + ", E " +
                                   std::to_string(E) + ", L-BFGS iterations " + std::to_string(result.lbfgsIterations) +
                                   ", Newton iterations " + std::to_string(result.newtonIterations) +
-                                  ", free " + std::to_string(freeVerts.size()))) {
+                                  ", free " + std::to_string(freeVerts.size()) + ", work " +
+                                  formatWork(result.tetEvaluations, nt))) {
         result.status = Status::failure("untangle: stopped by the progress callback");
         result.stopped = true;
+        break;
+      }
+      if (dmin <= 0 && options.maxTetEvaluations > 0 && result.tetEvaluations >= options.maxTetEvaluations) {
+        result.budgetExhausted = true;
         break;
       }
       if (dmin <= 0 && outer + 1 >= options.regionRounds) break;  // this region has had its rounds: grow it
@@ -627,7 +642,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     result.U = W.topRows(nv);
     result.invertedAfter = countNonPositiveTets(result.U, T0);
     result.flippedBoundaryTriangles = countBad(nt, ntx);
-    if ((result.invertedAfter == 0 && result.flippedBoundaryTriangles == 0) || !result.status.ok || rings < 0) break;
+    if ((result.invertedAfter == 0 && result.flippedBoundaryTriangles == 0) || !result.status.ok || rings < 0 ||
+        result.budgetExhausted)
+      break;
     // Tets whose four vertices are fixed cannot be repaired by any region.
     int locked = 0;
     for (Eigen::Index t = 0; t < ntx; ++t) {
@@ -700,7 +717,8 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   if ((result.invertedAfter > 0 || result.flippedBoundaryTriangles > 0) && result.status.ok)
     result.status = Status::failure("untangle: " + std::to_string(result.invertedAfter) + " tets remain inverted and " +
                                     std::to_string(result.flippedBoundaryTriangles) +
-                                    " boundary triangles flipped (some may have only fixed vertices)");
+                                    " boundary triangles flipped (some may have only fixed vertices)" +
+                                    (result.budgetExhausted ? "; work budget (maxTetEvaluations) spent" : ""));
   return result;
 }
 

@@ -65,6 +65,42 @@ TEST_P(UntangleMethods, LocalRegionFixesAFewInvertedTets) {
   EXPECT_LT(r.freeVertices, m.V.rows() / 2);
 }
 
+TEST(Untangle, WorkBudgetEndsAFailingRunEarly) {
+  // A run that cannot succeed: two neighbouring vertices of a held face are
+  // swapped, so the face folds and its tets stay inverted whatever the
+  // interior does; the run grows its region up to every free vertex.
+  const int n = 6, s = n + 1;
+  const TetMesh m = t2stest::cubeGrid(n);
+  const auto fixed = boundaryMask(m);
+  Eigen::MatrixX3d U = m.V;
+  const int a = 0 + s * (3 + s * 3), b = 0 + s * (4 + s * 3);  // (i, j, k) = (0, 3, 3), (0, 4, 3): on the face x = −1
+  ASSERT_TRUE(fixed[a] && fixed[b]);
+  U.row(a).swap(U.row(b));
+  UntangleOptions options;
+  options.localRepairSweeps = 0;
+  const UntangleResult full = untangle(m.V, m.T, U, fixed, options);
+  ASSERT_GT(full.invertedAfter, 0);
+  EXPECT_FALSE(full.budgetExhausted);
+  EXPECT_GT(full.outerIterations, 2);
+  // Each ε round is at least one evaluation of its region.
+  EXPECT_GE(full.tetEvaluations, static_cast<double>(full.outerIterations));
+
+  options.maxTetEvaluations = 2.0 * static_cast<double>(m.T.rows());  // two evaluations of the mesh
+  const UntangleResult cut = untangle(m.V, m.T, U, fixed, options);
+  EXPECT_TRUE(cut.budgetExhausted);
+  EXPECT_FALSE(cut.status.ok);
+  EXPECT_GT(cut.invertedAfter, 0);
+  EXPECT_GE(cut.tetEvaluations, options.maxTetEvaluations);
+  EXPECT_LT(cut.tetEvaluations, full.tetEvaluations);
+  EXPECT_LT(cut.outerIterations, full.outerIterations);
+  EXPECT_NE(cut.status.message.find("budget"), std::string::npos) << cut.status.message;
+  EXPECT_LE(cut.invertedAfter, cut.invertedBefore);  // never worse than the start
+  for (Eigen::Index v = 0; v < U.rows(); ++v)
+    if (fixed[v]) {
+      EXPECT_EQ(cut.U.row(v), U.row(v));
+    }
+}
+
 TEST(Untangle, NothingToDoLeavesTheMapAlone) {
   const TetMesh m = t2stest::cubeGrid(3);
   const UntangleResult r = untangle(m.V, m.T, m.V, boundaryMask(m));

@@ -143,6 +143,15 @@ struct ParamOptions {
   /// negative Gauss point (RMS 0.0060 of the diagonal, boundary Hausdorff
   /// 0.028).
   bool morphWhenTangled = true;
+  /// With morphWhenTangled: the final untangling's phases together end after
+  /// this many evaluations of the energy over the whole mesh (untangle.h
+  /// maxTetEvaluations, in units of #tets), and what is left inverted goes
+  /// to the morph; 0 = no budget. Measured (cube, all phases): homer 1992,
+  /// triceratops 620, part 533, retinal 458, fandisk 330, blobby 103
+  /// (ball: at most 647); on the failing ones spool's ball untangling
+  /// spent 4245 and bunny00's cube untangling ran 14 minutes (about 9·10⁶
+  /// tet evaluations per second on 2 cores) without finishing.
+  double finalUntangleWork = 3000;
   bool splitChords = true;             ///< step 1 (required for the cube)
   ProgressCallback progress = {};      ///< fraction over the whole stage; false stops
 };

@@ -142,6 +142,11 @@ struct UntangleOptions {
   /// and the moves would take minutes).
   int localRepairSweeps = 100;
   double localRepairFraction = 0.02;
+  /// Work budget: the run ends (failed, budgetExhausted) after the ε update
+  /// in which the energy's tet evaluations (counting each evaluation of a
+  /// tet, cones included, once) reach this many while inversions remain;
+  /// 0 = no budget. Deterministic, unlike a time limit.
+  double maxTetEvaluations = 0;
   ProgressCallback progress = {};  ///< called once per ε update; false stops
 };
 
@@ -158,6 +163,8 @@ struct UntangleResult {
   double minDet = 0;               ///< smallest det J at the end (floating point)
   Status status;                   ///< failure when inversions remain or progress stopped it
   bool stopped = false;            ///< the progress callback stopped it
+  double tetEvaluations = 0;       ///< work: tet evaluations of the energy (see maxTetEvaluations)
+  bool budgetExhausted = false;    ///< ended by maxTetEvaluations with inversions left
 };
 
 /// Untangles U (#V × 3), the image of the reference mesh (reference #V × 3,
