@@ -632,8 +632,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         untangleOptions.cubeLocks = locks;
       }
       // The work budget over the phases (finalUntangleWork): each gets what
-      // the ones before left.
-      const double budget = options.morphWhenTangled && options.finalUntangleWork > 0
+      // the ones before left. Only where the morph can take over.
+      const double budget = options.morphWhenTangled && r.sphere.flippedTriangles == 0 && options.finalUntangleWork > 0
                                 ? options.finalUntangleWork * static_cast<double>(mesh.numTets())
                                 : 0;
       double spent = 0;
@@ -698,7 +698,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
           r.param.morphMaxDistance = morphed.maxDistance;
           r.warnings.push_back(
               "the transport's composition could not be untangled (" + std::to_string(untangled.invertedAfter) +
-              " tets left inverted" + (untangled.budgetExhausted ? " when its work budget was spent" : "") + "); the parameterization is the ball map moved towards it without inverting a tet "
+              " tets left inverted" + (untangled.budgetExhausted ? " when its work budget was spent" : "") +
+              "); the parameterization is the ball map moved towards it without inverting a tet "
               "(param.morph: root mean square distance " + formatDouble(morphed.distance) + " target edges)");
           untangled.U = std::move(morphed.U);
           untangled.invertedAfter = countNonPositiveTets(untangled.U, mesh.T);
@@ -731,6 +732,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
           UntangleOptions relax = untangleOptions;
           relax.sphereFaces.resize(0, 3);
           relax.relax = true;
+          relax.maxTetEvaluations = 0;  // (no inversions: the budget is for untangling)
           relax.method = UntangleMethod::Lbfgs;  // (its iteration budget is the L-BFGS one)
           relax.theta = options.relaxTheta;
           relax.maxLbfgsIterations = options.relaxIterations;
