@@ -13,8 +13,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
-#include <string>
 #include <memory>
+#include <string>
 
 #include "block_hessian.h"
 #include "lbfgs.h"
