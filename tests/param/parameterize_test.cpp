@@ -71,6 +71,26 @@ TEST_P(TwoRegions, DensityFourGivesTheTargetVolumeFractions) {
 INSTANTIATE_TEST_SUITE_P(Domains, TwoRegions, ::testing::Values(ParamDomain::Ball, ParamDomain::Cube),
                          [](const auto& info) { return info.param == ParamDomain::Ball ? "ball" : "cube"; });
 
+// The final untangling's work budget (ParamOptions::finalUntangleWork): a
+// budget too small for the composition's inversions (and no local repair)
+// hands them to the morph, which still ends with a valid map.
+TEST_P(TwoRegions, AnExhaustedUntanglingBudgetGoesToTheMorph) {
+  const TetMesh mesh = twoRegionSphere();
+  ParamOptions o;
+  o.domain = GetParam();
+  o.measure.regionDensity[2] = 4;
+  o.finalUntangleWork = 1e-3;  // spent by the first ε update
+  o.untangle.maxLbfgsIterations = 1;  // which then leaves inversions
+  o.untangle.localRepairSweeps = 0;
+  const ParamResult r = parameterize(mesh, o);
+  ASSERT_GT(r.param.invertedTetsBeforeUntangling, 0);
+  EXPECT_TRUE(r.param.morphed);
+  expectValidParameterization(r, GetParam());
+  bool named = false;
+  for (const std::string& w : r.warnings) named = named || w.find("work budget") != std::string::npos;
+  EXPECT_TRUE(named);
+}
+
 TEST(Parameterize, UnchangedUnderRigidMotionAndScaling) {
   const TetMesh mesh = twoRegionSphere();
   ParamOptions o;
