@@ -1,7 +1,8 @@
 #pragma once
 // Internal: a compact L-BFGS with Armijo backtracking, and the damped step of
-// the projected Newton iterations, for the untangler and the barrier morph. A step whose value is not finite (a barrier crossed) is
-// rejected like one that does not decrease enough.
+// the projected Newton iterations, for the untangler and the barrier morph.
+// A step whose value is not finite (a barrier crossed) is rejected like one
+// that does not decrease enough.
 #include <Eigen/Core>
 #include <cmath>
 #include <deque>

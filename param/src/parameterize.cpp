@@ -631,9 +631,11 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         untangleOptions.cubeFaces = r.boundaryFaces;
         untangleOptions.cubeLocks = locks;
       }
-      // The work budget over the phases (finalUntangleWork): each gets what
-      // the ones before left. Only where the morph can take over.
-      const double budget = options.morphWhenTangled && r.sphere.flippedTriangles == 0 && options.finalUntangleWork > 0
+      // The morph needs a sphere map with no flipped triangle. The work budget
+      // over the phases (finalUntangleWork) applies only where the morph can
+      // take over; each phase gets what the ones before left.
+      const bool canMorph = options.morphWhenTangled && r.sphere.flippedTriangles == 0;
+      const double budget = canMorph && options.finalUntangleWork > 0
                                 ? options.finalUntangleWork * static_cast<double>(mesh.numTets())
                                 : 0;
       double spent = 0;
@@ -670,8 +672,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       }
       r.timings.finalUntangle = secondsSince(t0);
       if (untangled.stopped) throw Status::failure("stopped during the final untangling");
-      if ((untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) && options.morphWhenTangled &&
-          r.sphere.flippedTriangles == 0) {
+      if ((untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) && canMorph) {
         // The composition folds more than untangling repairs: start again
         // from the bijective ball map (stretched onto the cube) and move it
         // towards the untangler's result, which is bijective almost
