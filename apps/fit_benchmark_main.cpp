@@ -19,6 +19,8 @@
 #include <random>
 #include <string>
 
+#include "allocator_tuning.h"
+
 using namespace tet2spline::spline;
 
 namespace {
@@ -40,6 +42,7 @@ double peakMemoryMB() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  tet2spline::apps::keepFreedMemory();
   long points = 180000;
   int elements = 16, degree = 3, threads = 2;
   double smoothing = FitOptions{}.smoothingWeight, fold = 0.0;

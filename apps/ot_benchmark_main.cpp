@@ -58,6 +58,7 @@
 #include <string>
 #include <vector>
 
+#include "allocator_tuning.h"
 #include "tet2spline/param/error.h"
 #include "tet2spline/param/optimal_transport.h"
 #include "weighted_points.h"
@@ -80,6 +81,7 @@ double peakRssMiB() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  tet2spline::apps::keepFreedMemory();
   std::vector<int> sizes = {10000, 100000, 181000};
   OptimalTransportOptions options;
   bool ball = false;

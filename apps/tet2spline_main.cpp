@@ -6,12 +6,14 @@
 #include <new>
 #include <vector>
 
+#include "allocator_tuning.h"
 #include "cli_common.h"
 #include "tet2spline/param/error.h"
 
 using namespace tet2spline;
 
 int main(int argc, char** argv) {
+  tet2spline::apps::keepFreedMemory();
   CLI::App app{"tet2spline: measure-controlled volumetric parameterization and trivariate B-spline fitting"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "tet2spline 0.1.0");
