@@ -200,13 +200,14 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     }
   }
   const int n = static_cast<int>(representative.size());
-  // Keep the input order among representatives (first occurrence order).
+  // The merged sites in the order the power diagrams work in (spatialOrder):
+  // each of the solve's diagrams then skips its own sort and copy back.
   std::vector<int> rank(n);
   {
-    std::vector<int> byIndex(n);
-    std::iota(byIndex.begin(), byIndex.end(), 0);
-    std::sort(byIndex.begin(), byIndex.end(), [&](int a, int b) { return representative[a] < representative[b]; });
-    for (int q = 0; q < n; ++q) rank[byIndex[q]] = q;
+    Eigen::MatrixX3d sites(n, 3);
+    for (int m = 0; m < n; ++m) sites.row(m) = points.row(representative[m]);
+    const std::vector<int> order = spatialOrder(sites);
+    for (int q = 0; q < n; ++q) rank[order[q]] = q;
   }
   Eigen::MatrixX3d y(n, 3);
   Eigen::VectorXd nu = Eigen::VectorXd::Zero(n);
@@ -234,7 +235,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     const double lambda = reach > 0 ? 1.0 / reach : 1.0;
     for (int i = 0; i < n; ++i) psi[i] = (1 - lambda) * (y.row(i).transpose() - c).squaredNorm();
   }
-  PowerDiagram pd = computePowerDiagram(y, psi, domain);
+  PowerDiagram pd = computePowerDiagram(y, psi, domain, CellMeasure::DualWhereInside, true);
   for (int i = 0; i < n; ++i)
     if (!(pd.volumes[i] > 0)) {
       int original = representative[std::find(rank.begin(), rank.end(), i) - rank.begin()];
@@ -345,7 +346,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     auto passes = [&](int e) {  // the step 2^-e from psiStart; becomes the current point if it passes
       const double t = std::ldexp(1.0, -e);
       psiTrial = psiStart + t * d;
-      PowerDiagram trial = computePowerDiagram(y, psiTrial, domain);
+      PowerDiagram trial = computePowerDiagram(y, psiTrial, domain, CellMeasure::DualWhereInside, true);
       ++stats.evaluations;
       stats.triangulationSeconds += trial.triangulationSeconds;
       stats.clippingSeconds += trial.clippingSeconds;

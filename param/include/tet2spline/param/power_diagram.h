@@ -112,7 +112,16 @@ enum class CellMeasure {
 /// others are hidden and get empty cells; never a crash.
 /// Throws Error(Usage) if the sizes disagree and Error(Input) for non-finite
 /// coordinates or weights.
+/// `presorted`: the sites are already in spatialOrder (below), so the
+/// diagram skips its own sort and the copy back to the input order (about
+/// 0.1 s of a 0.9 s diagram at 181k sites); the result is the same.
 PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
-                                 const Domain& domain, CellMeasure measure = CellMeasure::DualWhereInside);
+                                 const Domain& domain, CellMeasure measure = CellMeasure::DualWhereInside,
+                                 bool presorted = false);
+
+/// The order (a permutation of 0..#N−1) in which computePowerDiagram works:
+/// CGAL's Hilbert sort with the median policy. A caller that builds many
+/// diagrams of the same sites can order them so once (see `presorted`).
+std::vector<int> spatialOrder(const Eigen::MatrixX3d& points);
 
 }  // namespace tet2spline
