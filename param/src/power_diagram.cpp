@@ -356,6 +356,7 @@ class ConvexCell {
 
 struct DualScratch {
   PodBuffer<Eigen::Vector3d> foot, area;
+  std::vector<int> slot;  // per site j: j's slot in the current site's neighbour list
 };
 
 struct CellScratch {
@@ -673,8 +674,12 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
         DualScratch& ds = dualScratch.local();
         ds.foot.resize(e - b);
         ds.area.resize(e - b);
+        // Slots by direct lookup: a binary search per tet edge was the
+        // hottest spot of the dual pass.
+        if (ds.slot.size() != static_cast<size_t>(n)) ds.slot.assign(n, 0);
         for (int k = b; k < e; ++k) {
           const int j = pd.neighbour[k];
+          ds.slot[j] = k - b;
           const Eigen::Vector3d d = site[j] - y;
           const double c = radicalOffset(d, weights[i], weights[j]);
           ds.foot[k - b] = (c / d.squaredNorm()) * d;
@@ -688,8 +693,7 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
             if (r == q) continue;
             const int j = tetVertex[t][r];
             const Eigen::Vector3d pNext = centre[tetNeighbour[t][kEvenCompletion[q][r]]] - y;
-            const int k = static_cast<int>(std::lower_bound(pd.neighbour.begin() + b, pd.neighbour.begin() + e, j) -
-                                           (pd.neighbour.begin() + b));
+            const int k = ds.slot[j];
             const Eigen::Vector3d cr = p.cross(pNext);
             ds.area[k] += cr;
             moment += ds.foot[k].dot(cr) * (p + pNext);

@@ -113,6 +113,7 @@ TEST_P(ParamMorphFallback, ValidWhereTheUntanglingFails) {
   ParamOptions o;
   o.domain = domain;
   const ParamResult r = parameterize(mesh, o);
+  ASSERT_TRUE(r.status.ok) << name << ": " << r.status.message;
   EXPECT_TRUE(r.param.morphed) << name;
   t2stest::expectValidParameterization(r, domain);
   EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.05 * r.domainVolume) << name;
