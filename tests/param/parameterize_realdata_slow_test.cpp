@@ -24,6 +24,7 @@
 
 #include "param_checks.h"
 #include "test_data.h"
+#include "tet2spline/io/cad_io.h"
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/parameterize.h"
 #include "tet2spline/param/tetrahedralize.h"
@@ -96,6 +97,44 @@ TEST_P(ParamSpoolWithoutSlivers, ValidMeasurePreservingParameterization) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Domains, ParamSpoolWithoutSlivers, ::testing::Values(ParamDomain::Cube, ParamDomain::Ball),
+                         [](const auto& info) { return info.param == ParamDomain::Cube ? "cube" : "ball"; });
+
+// A solid with a void (models/block_with_void.step, meshed as `mesh --voids`
+// meshes it: the void's inside filled and tagged), on both domains, with the
+// void as any other region and at a tenth of the density: converged, zero
+// inverted tets, boundary on ∂Ω, each region's parametric share within 0.5%
+// (absolute) of its target. Measured: cube 2.7 s (as any region) and 8.4 s
+// (a tenth), ball 2.4 and 7.3 s.
+class ParamSolidWithVoid : public ::testing::TestWithParam<ParamDomain> {};
+
+TEST_P(ParamSolidWithVoid, ValidWithTheVoidFilled) {
+  const ParamDomain domain = GetParam();
+  TetrahedralizeOptions meshing;
+  meshing.exactBoundary = false;
+  meshing.voids = true;
+  const TetMesh mesh = tetrahedralize(readCadSurface(t2stest::sourceDir() + "/models/block_with_void.step"), meshing,
+                                      "block_with_void.step");
+  ASSERT_EQ(mesh.voidRegions.size(), 1u);
+  for (const double voidDensity : {0.0, 0.1}) {
+    ParamOptions o;
+    o.domain = domain;
+    o.measure.voidDensity = voidDensity;
+    const ParamResult r = parameterize(mesh, o);
+    t2stest::expectValidParameterization(r, domain);
+    int voids = 0;
+    for (const RegionFigures& g : r.regions) {
+      EXPECT_NEAR(g.achievedVolumeFraction, g.targetVolumeFraction, 0.005) << "region " << g.id;
+      voids += g.isVoid;
+    }
+    EXPECT_EQ(voids, 1);
+    std::cout << "block_with_void" << (domain == ParamDomain::Cube ? " cube" : " ball") << ", void density "
+              << voidDensity << ": OT " << r.ot.iterations << " iterations; volume ratio p1/p50/p99 "
+              << r.param.volumeRatioP1 << "/" << r.param.volumeRatioP50 << "/" << r.param.volumeRatioP99
+              << "; total " << r.timings.total << " s" << std::endl;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Domains, ParamSolidWithVoid, ::testing::Values(ParamDomain::Cube, ParamDomain::Ball),
                          [](const auto& info) { return info.param == ParamDomain::Cube ? "cube" : "ball"; });
 
 // Where the final untangling fails, the parameterization is the ball map
