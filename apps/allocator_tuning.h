@@ -8,7 +8,7 @@
 // dear on this virtual machine (perf: 6.5% of all cycles in the kernel's
 // fault path). Keeping up to 1 GiB of free heap and serving blocks up to
 // 32 MiB (glibc's maximum for this setting) from the heap cut the faults to
-// 75k and the benchmark from 25.6 s to 22.1 s. Peak memory is unchanged:
+// 75k and the benchmark from 25.6 s to 21.4 s. Peak memory is unchanged:
 // the memory kept is memory the process already had at its peak.
 #pragma once
 
