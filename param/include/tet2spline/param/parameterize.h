@@ -139,8 +139,9 @@ struct ParamOptions {
   /// with none (volume ratio p1/p50/p99 0.22/1.09/269 on the cube,
   /// 0.26/1.11/122 on the ball); spool.off (6 left on the cube) with none,
   /// p50 0.75. With finalUntangleWork (3069 and 8 left when it is spent):
-  /// hand cube 0.22/1.09/252, spool cube 0.049/0.75/4.27. The tets with the largest ratios touch the boundary and are as
-  /// large in the untangler's result. hand's cube spline then fits with no
+  /// hand cube 0.22/1.09/252, spool cube 0.049/0.75/4.27. The tets with the
+  /// largest ratios touch the boundary and are as large in the untangler's
+  /// result. hand's cube spline then fits with no
   /// negative Gauss point (RMS 0.0060 of the diagonal, boundary Hausdorff
   /// 0.028).
   bool morphWhenTangled = true;

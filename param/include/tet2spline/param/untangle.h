@@ -164,7 +164,9 @@ struct UntangleResult {
   Status status;                   ///< failure when inversions remain or progress stopped it
   bool stopped = false;            ///< the progress callback stopped it
   double tetEvaluations = 0;       ///< work: tet evaluations of the energy (see maxTetEvaluations)
-  bool budgetExhausted = false;    ///< the energy's minimisation ended by maxTetEvaluations (the local repair after it may still have fixed all)
+  /// The energy's minimisation ended by maxTetEvaluations (the local repair
+  /// after it may still have fixed all).
+  bool budgetExhausted = false;
 };
 
 /// Untangles U (#V × 3), the image of the reference mesh (reference #V × 3,
