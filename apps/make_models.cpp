@@ -126,7 +126,7 @@ TopoDS_Shape cylinderZ(double x, double y, double z0, double z1, double r) {
   return BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(x, y, z0), gp::DZ()), r, z1 - z0).Shape();
 }
 
-/// The default model: an L-bracket (base 80 × 50 × 10 mm, upright 12 mm thick
+/// The filleted CAD part: an L-bracket (base 80 × 50 × 10 mm, upright 12 mm thick
 /// and 60 mm tall), every edge filleted, a filleted boss with a blind hole on
 /// the base, a blind pocket in the upright and one in the base. Genus 0.
 TopoDS_Shape makeBracket() {
