@@ -31,6 +31,11 @@
 
 using namespace tet2spline;
 
+namespace {
+// "cube" or "ball", for test names and log lines.
+std::string domainName(ParamDomain domain) { return domain == ParamDomain::Cube ? "cube" : "ball"; }
+}  // namespace
+
 class ParamRealData : public ::testing::TestWithParam<std::tuple<const char*, ParamDomain>> {};
 
 TEST_P(ParamRealData, ValidMeasurePreservingParameterization) {
@@ -47,7 +52,7 @@ TEST_P(ParamRealData, ValidMeasurePreservingParameterization) {
   // mesh (blob-closed, 655 vertices): 2.0% short of the ball, 3.7% of the cube.
   EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.05 * r.domainVolume) << name;
   EXPECT_GT(r.parametricVolume.minCoeff(), 0) << name;
-  std::cout << name << (domain == ParamDomain::Cube ? " cube" : " ball") << ": " << r.mesh.V.rows() << " vertices, "
+  std::cout << name << " " << domainName(domain) << ": " << r.mesh.V.rows() << " vertices, "
             << r.mesh.T.rows() << " tets; OT " << r.ot.iterations << " iterations, error " << r.ot.maxRelativeMassError
             << "; inverted before final untangling " << r.param.invertedTetsBeforeUntangling << "; volume ratio p1/p50/p99 "
             << r.param.volumeRatioP1 << "/" << r.param.volumeRatioP50 << "/" << r.param.volumeRatioP99 << "; seconds OT "
@@ -63,7 +68,7 @@ INSTANTIATE_TEST_SUITE_P(
                       std::make_tuple("blob-closed", ParamDomain::Ball), std::make_tuple("part", ParamDomain::Ball),
                       std::make_tuple("fandisk", ParamDomain::Ball)),
     [](const auto& info) {
-      return t2stest::testName(std::get<0>(info.param)) + (std::get<1>(info.param) == ParamDomain::Cube ? "_cube" : "_ball");
+      return t2stest::testName(std::get<0>(info.param)) + "_" + domainName(std::get<1>(info.param));
     });
 
 // spool.off with TetGen's dihedral bound (tetrahedralize.h minDihedral): its
@@ -89,7 +94,7 @@ TEST_P(ParamSpoolWithoutSlivers, ValidMeasurePreservingParameterization) {
   EXPECT_EQ(r.ball.invertedTets, 0);
   t2stest::expectValidParameterization(r, domain);
   EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.05 * r.domainVolume);
-  std::cout << "spool (15 degrees)" << (domain == ParamDomain::Cube ? " cube" : " ball") << ": " << r.mesh.V.rows()
+  std::cout << "spool (15 degrees)" << " " << domainName(domain) << ": " << r.mesh.V.rows()
             << " vertices; inverted before final untangling " << r.param.invertedTetsBeforeUntangling
             << "; volume ratio p1/p50/p99 " << r.param.volumeRatioP1 << "/" << r.param.volumeRatioP50 << "/"
             << r.param.volumeRatioP99 << "; seconds final untangle " << r.timings.finalUntangle << " total "
@@ -97,7 +102,7 @@ TEST_P(ParamSpoolWithoutSlivers, ValidMeasurePreservingParameterization) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Domains, ParamSpoolWithoutSlivers, ::testing::Values(ParamDomain::Cube, ParamDomain::Ball),
-                         [](const auto& info) { return info.param == ParamDomain::Cube ? "cube" : "ball"; });
+                         [](const auto& info) { return domainName(info.param); });
 
 // A solid with a void (models/block_with_void.step, meshed as `mesh --voids`
 // meshes it: the void's inside filled and tagged), on both domains, with the
@@ -127,7 +132,7 @@ TEST_P(ParamSolidWithVoid, ValidWithTheVoidFilled) {
       voids += g.isVoid;
     }
     EXPECT_EQ(voids, 1);
-    std::cout << "block_with_void" << (domain == ParamDomain::Cube ? " cube" : " ball") << ", void density "
+    std::cout << "block_with_void" << " " << domainName(domain) << ", void density "
               << voidDensity << ": OT " << r.ot.iterations << " iterations; volume ratio p1/p50/p99 "
               << r.param.volumeRatioP1 << "/" << r.param.volumeRatioP50 << "/" << r.param.volumeRatioP99
               << "; total " << r.timings.total << " s" << std::endl;
@@ -135,7 +140,7 @@ TEST_P(ParamSolidWithVoid, ValidWithTheVoidFilled) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Domains, ParamSolidWithVoid, ::testing::Values(ParamDomain::Cube, ParamDomain::Ball),
-                         [](const auto& info) { return info.param == ParamDomain::Cube ? "cube" : "ball"; });
+                         [](const auto& info) { return domainName(info.param); });
 
 // Where the final untangling fails, the parameterization is the ball map
 // morphed towards its result (ParamOptions::morphWhenTangled): spool at the
@@ -160,7 +165,7 @@ TEST_P(ParamMorphFallback, ValidWhereTheUntanglingFails) {
   EXPECT_NE(std::find_if(r.warnings.begin(), r.warnings.end(),
                          [](const std::string& w) { return w.find("param.morph") != std::string::npos; }),
             r.warnings.end());
-  std::cout << name << (domain == ParamDomain::Cube ? " cube" : " ball") << ": morph distance " << r.param.morphDistance
+  std::cout << name << " " << domainName(domain) << ": morph distance " << r.param.morphDistance
             << " target edges (max " << r.param.morphMaxDistance << "); volume ratio p1/p50/p99 " << r.param.volumeRatioP1
             << "/" << r.param.volumeRatioP50 << "/" << r.param.volumeRatioP99 << "; seconds final untangle "
             << r.timings.finalUntangle << " morph " << r.timings.morph << " total " << r.timings.total << std::endl;
@@ -171,5 +176,5 @@ INSTANTIATE_TEST_SUITE_P(Genus0, ParamMorphFallback,
                                            std::make_tuple("hand", ParamDomain::Ball)),
                          [](const auto& info) {
                            return t2stest::testName(std::get<0>(info.param)) +
-                                  (std::get<1>(info.param) == ParamDomain::Cube ? "_cube" : "_ball");
+                                  "_" + domainName(std::get<1>(info.param));
                          });
