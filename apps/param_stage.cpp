@@ -25,12 +25,16 @@ void ParamStageOptions::addTo(CLI::App* cmd) {
   cmd->add_option("--untangler", untangler,
                   "minimiser of the untangling energy: newton (projected Newton, CHOLMOD) or lbfgs")
       ->check(CLI::IsMember({"newton", "lbfgs"}))->capture_default_str();
+  cmd->add_option("--boundary-smoothing", boundarySmoothing,
+                  "sweeps of tangential smoothing of the boundary after the transport (0 = none)")
+      ->check(CLI::Range(0, 100))->capture_default_str();
 }
 
 ParamOptions ParamStageOptions::toParamOptions() const {
   ParamOptions o;
   o.domain = domain == "ball" ? ParamDomain::Ball : ParamDomain::Cube;
   o.transport = !noTransport;
+  o.boundarySmoothing.sweeps = boundarySmoothing;
   for (const std::string& d : densities) {
     const size_t eq = d.find('=');
     std::istringstream rs(d.substr(0, eq == std::string::npos ? 0 : eq)), ws(eq == std::string::npos ? "" : d.substr(eq + 1));
@@ -95,6 +99,10 @@ void addParamReport(json& j, const ParamResult& r) {
   json morph{{"used", r.param.morphed}};
   if (r.param.morphed) morph["rms_distance"] = r.param.morphDistance, morph["max_distance"] = r.param.morphMaxDistance;
   setPath(j, "param.morph", morph);
+  if (r.ot.ran)
+    setPath(j, "param.boundary_smoothing", json{{"moves", r.param.boundarySmoothingMoves},
+                                                {"refused", r.param.boundarySmoothingRefused},
+                                                {"rms_move", r.param.boundarySmoothingRms}});
   setPath(j, "param.volume_ratio", json{{"p1", r.param.volumeRatioP1}, {"p50", r.param.volumeRatioP50},
                                         {"p99", r.param.volumeRatioP99}, {"min", r.param.volumeRatioMin},
                                         {"max", r.param.volumeRatioMax}});
@@ -119,6 +127,7 @@ void addParamReport(json& j, const ParamResult& r) {
     setPath(j, "timings.final_untangle", r.timings.finalUntangle);
     setPath(j, "timings.morph", r.timings.morph);
     setPath(j, "timings.relax", r.timings.relax);
+    setPath(j, "timings.boundary_smoothing", r.timings.boundarySmoothing);
   }
   setPath(j, "timings.param", r.timings.total);
 }

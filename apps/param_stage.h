@@ -17,6 +17,7 @@ struct ParamStageOptions {
   double tolerance = 1e-6;
   int maxIterations = 100;
   std::string untangler = "lbfgs";
+  int boundarySmoothing = BoundarySmoothingOptions().sweeps;
 
   void addTo(CLI::App* cmd);
   /// Throws Error(Usage) for a malformed --density.

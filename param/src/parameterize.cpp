@@ -742,6 +742,21 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         }
       }
       r.timings.relax = secondsSince(t0);
+
+      // 7. tangential smoothing of the boundary (boundary_smoothing.h)
+      t0 = Clock::now();
+      if (options.boundarySmoothing.sweeps > 0) {
+        report(0.99, "boundary smoothing");
+        BoundarySmoothingOptions smoothing = options.boundarySmoothing;
+        smoothing.shape = options.domain == ParamDomain::Cube ? BoundaryShape::UnitCube : BoundaryShape::UnitSphere;
+        smoothing.targetVolumes = r.targetVolume;
+        BoundarySmoothingResult smoothed = smoothBoundary(mesh.V, mesh.T, r.U, r.boundaryFaces, smoothing);
+        r.U = std::move(smoothed.U);
+        r.param.boundarySmoothingMoves = smoothed.moves;
+        r.param.boundarySmoothingRefused = smoothed.refused;
+        r.param.boundarySmoothingRms = smoothed.rmsMove;
+      }
+      r.timings.boundarySmoothing = secondsSince(t0);
     }
 
     // Figures.

@@ -49,3 +49,39 @@ TEST_P(FitRealData, PositiveJacobianAtTheDefaults) {
 
 INSTANTIATE_TEST_SUITE_P(Genus0, FitRealData, ::testing::Values("blob-closed", "part", "triceratops", "retinal", "homer"),
                          [](const auto& info) { return t2stest::testName(info.param); });
+
+// "The RMS error at least halves from 8 to 16 elements per direction on the
+// smooth meshes of the test data" (issue 5). Smooth: surfaces whose adjacent
+// triangles' normals differ by less than 25° at the 99th percentile, i.e.
+// blobby (23.7°), retinal (22.4°) and bunny00 (16.4°); the others have
+// creases (part, fandisk, spool: > 90°) or sharp tips (blob-closed 57°,
+// triceratops 78°, homer 43°). bunny00 is left to the benchmark (its cube
+// parameterization takes minutes). Measured (RMS relative to the diagonal,
+// 8 -> 16 elements): without the boundary smoothing of the param stage
+// blobby 0.0037 -> 0.0020 (1.90), retinal 0.0057 -> 0.0031 (1.83); with it
+// blobby 0.0036 -> 0.0014 (2.6), retinal 0.0057 -> 0.0027 (2.1).
+class FitHalving : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(FitHalving, RmsErrorHalvesFrom8To16Elements) {
+  const std::string name = GetParam();
+  const auto dir = t2stest::scratchDir("fit_halving_" + name);
+  const auto vtu = dir / "param.vtu";
+  auto r = t2stest::runCli("param " + q(t2stest::cgalMesh(name)) + " -o " + q(vtu) + " --domain cube -q", dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  double rms[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    const int elements = 8 << k;
+    const auto out = dir / ("fit" + std::to_string(elements));
+    r = t2stest::runCli("fit " + q(vtu) + " -o " + q(out) + " --elements " + std::to_string(elements) + " -q", dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto j = readJson(out / "report.json");
+    EXPECT_EQ(j["jacobian"]["negative_gauss_points"].get<long>(), 0) << name;
+    rms[k] = j["fit"]["rms_error_relative"].get<double>();
+  }
+  std::cout << name << ": relative RMS " << rms[0] << " at 8^3 elements, " << rms[1] << " at 16^3 (ratio "
+            << rms[0] / rms[1] << ")" << std::endl;
+  EXPECT_LE(rms[1], 0.5 * rms[0]) << name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Smooth, FitHalving, ::testing::Values("blobby", "retinal"),
+                         [](const auto& info) { return t2stest::testName(info.param); });

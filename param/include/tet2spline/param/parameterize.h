@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "tet2spline/param/ball_map.h"
+#include "tet2spline/param/boundary_smoothing.h"
 #include "tet2spline/param/error.h"
 #include "tet2spline/param/optimal_transport.h"
 #include "tet2spline/param/progress.h"
@@ -131,6 +132,10 @@ struct ParamOptions {
   int relaxIterations = 300;
   int relaxRings = 6;                  ///< vertices within this many rings of a density jump move (3 rings: 0.1968, 6: 0.1997, all: 0.1997)
   double relaxTheta = 0.999;           ///< weight of the volume term in the relaxation (untangle.h θ)
+  /// Last step with transport: tangential smoothing of the boundary
+  /// (boundary_smoothing.h; its `shape` follows `domain`), which removes the
+  /// noise the composition leaves along ∂Ω; sweeps = 0 skips it.
+  BoundarySmoothingOptions boundarySmoothing;
   /// When the final untangling leaves tets inverted: move the bijective ball
   /// map (stretched onto the cube for the cube) towards the untangler's
   /// result behind a barrier (barrier_morph.h), so the map is bijective
@@ -208,11 +213,14 @@ struct ParamResult {
     bool morphed = false;              ///< the final map is the ball map morphed towards the untangler's result
     double morphDistance = 0;          ///< then: rms of |U − target| per vertex, in target edges (barrier_morph.h)
     double morphMaxDistance = 0;       ///< and its largest
+    long boundarySmoothingMoves = 0;   ///< boundary vertex moves of the smoothing (all sweeps)
+    long boundarySmoothingRefused = 0; ///< its moves dropped to keep every tet positive
+    double boundarySmoothingRms = 0;   ///< rms displacement of the boundary vertices by it
   } param;
   std::vector<RegionFigures> regions;
   struct Timings {
     double refine = 0, sphere = 0, harmonic = 0, untangle = 0, measure = 0, transport = 0, composition = 0,
-           finalUntangle = 0, morph = 0, relax = 0, total = 0;
+           finalUntangle = 0, morph = 0, relax = 0, boundarySmoothing = 0, total = 0;
   } timings;
   Status status;                       ///< failure when inversions remain, OT did not converge or it was stopped
 };

@@ -1,0 +1,223 @@
+#include "tet2spline/param/boundary_smoothing.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "tet2spline/param/error.h"
+#include "tet2spline/param/topology.h"
+
+namespace tet2spline {
+namespace {
+
+// Compressed rows: the items of key k are items[start[k] .. start[k+1]).
+struct Rows {
+  std::vector<int> start, items;
+  int begin(int k) const { return start[static_cast<size_t>(k)]; }
+  int end(int k) const { return start[static_cast<size_t>(k) + 1]; }
+};
+
+template <class Each>
+Rows buildRows(Eigen::Index keys, Eigen::Index count, int perItem, Each each) {
+  Rows r;
+  r.start.assign(static_cast<size_t>(keys) + 1, 0);
+  for (Eigen::Index i = 0; i < count; ++i)
+    for (int c = 0; c < perItem; ++c) ++r.start[static_cast<size_t>(each(i, c).first) + 1];
+  for (size_t k = 1; k < r.start.size(); ++k) r.start[k] += r.start[k - 1];
+  r.items.resize(static_cast<size_t>(r.start.back()));
+  std::vector<int> fill(r.start.begin(), r.start.end() - 1);
+  for (Eigen::Index i = 0; i < count; ++i)
+    for (int c = 0; c < perItem; ++c) {
+      const auto [key, item] = each(i, c);
+      r.items[static_cast<size_t>(fill[static_cast<size_t>(key)]++)] = item;
+    }
+  return r;
+}
+
+double tetVolume6(const Eigen::MatrixX3d& P, const Eigen::MatrixX4i& T, int t) {
+  const Eigen::Vector3d a = P.row(T(t, 0));
+  return (P.row(T(t, 1)).transpose() - a).cross(P.row(T(t, 2)).transpose() - a).dot(P.row(T(t, 3)).transpose() - a);
+}
+
+// Exact orientation of four points (MatrixX3d is column-major: rows are copied).
+int orient(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+  return orient3d(a.data(), b.data(), c.data(), d.data());
+}
+
+// Bits of the coordinates pinned to 0 or 1 (cube); 7 = a corner.
+int pinnedBits(const Eigen::RowVector3d& u) {
+  int bits = 0;
+  for (int k = 0; k < 3; ++k)
+    if (u[k] == 0.0 || u[k] == 1.0) bits |= 1 << k;
+  return bits;
+}
+
+}  // namespace
+
+BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, const Eigen::MatrixX3d& U,
+                                       const Eigen::MatrixX3i& faces, const BoundarySmoothingOptions& options) {
+  const Eigen::Index nv = X.rows(), nt = T.rows();
+  if (U.rows() != nv)
+    throw Error(ErrorKind::Input, "smoothBoundary: " + std::to_string(U.rows()) + " parameters for " +
+                                      std::to_string(nv) + " vertices");
+  if (nt > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= nv))
+    throw Error(ErrorKind::Input, "smoothBoundary: a tet's vertex index is out of range");
+  if (options.targetVolumes.size() != 0 && options.targetVolumes.size() != nt)
+    throw Error(ErrorKind::Input, "smoothBoundary: " + std::to_string(options.targetVolumes.size()) +
+                                      " target volumes for " + std::to_string(nt) + " tets");
+  if (faces.rows() > 0 && (faces.minCoeff() < 0 || faces.maxCoeff() >= nv))
+    throw Error(ErrorKind::Input, "smoothBoundary: a boundary triangle's vertex index is out of range");
+
+  BoundarySmoothingResult result;
+  result.U = U;
+  if (options.sweeps <= 0 || faces.rows() == 0) return result;
+  Eigen::MatrixX3d& P = result.U;
+  const bool cube = options.shape == BoundaryShape::UnitCube;
+  const Eigen::Vector3d apex = cube ? Eigen::Vector3d(0.5, 0.5, 0.5) : Eigen::Vector3d::Zero();
+
+  const Rows tetsOf = buildRows(nv, nt, 4, [&](Eigen::Index t, int c) { return std::pair<int, int>(T(t, c), int(t)); });
+  const Rows facesOf =
+      buildRows(nv, faces.rows(), 3, [&](Eigen::Index f, int c) { return std::pair<int, int>(faces(f, c), int(f)); });
+
+  std::vector<int> boundary;
+  for (Eigen::Index i = 0; i < nv; ++i)
+    if (facesOf.end(int(i)) > facesOf.begin(int(i))) boundary.push_back(int(i));
+
+  // Boundary neighbours of each boundary vertex, and its tangent plane in X.
+  std::vector<std::vector<int>> ring(static_cast<size_t>(nv));
+  std::vector<Eigen::Matrix<double, 3, 2>> tangent(static_cast<size_t>(nv));
+  for (int i : boundary) {
+    std::vector<int>& r = ring[static_cast<size_t>(i)];
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    for (int k = facesOf.begin(i); k < facesOf.end(i); ++k) {
+      const int f = facesOf.items[static_cast<size_t>(k)];
+      for (int c = 0; c < 3; ++c)
+        if (faces(f, c) != i) r.push_back(faces(f, c));
+      const Eigen::Vector3d a = X.row(faces(f, 0)), b = X.row(faces(f, 1)), c = X.row(faces(f, 2));
+      normal += (b - a).cross(c - a);
+    }
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+    const Eigen::Vector3d n = normal.normalized();
+    const Eigen::Vector3d seed = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d t1 = n.cross(seed).normalized();
+    tangent[static_cast<size_t>(i)].col(0) = t1;
+    tangent[static_cast<size_t>(i)].col(1) = n.cross(t1);
+  }
+
+  // The value at x_i of the affine function of the tangent coordinates that
+  // fits the neighbours' U in least squares; false if they span no plane.
+  auto localFit = [&](int i, const std::vector<int>& nb, Eigen::RowVector3d& value) {
+    if (nb.size() < 3) return false;
+    const Eigen::Matrix<double, 3, 2>& B = tangent[static_cast<size_t>(i)];
+    Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+    Eigen::Matrix3d AtR = Eigen::Matrix3d::Zero();
+    for (int j : nb) {
+      const Eigen::Vector2d d = B.transpose() * (X.row(j) - X.row(i)).transpose();
+      const Eigen::Vector3d a(1.0, d.x(), d.y());
+      AtA += a * a.transpose();
+      AtR += a * P.row(j);
+    }
+    // The neighbours must spread in two directions: the centred scatter's
+    // smaller eigenvalue at least 1e-3 of the larger.
+    const double m = AtA(0, 0);
+    const Eigen::Matrix2d S = AtA.block<2, 2>(1, 1) - AtA.block<2, 1>(1, 0) * AtA.block<1, 2>(0, 1) / m;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(S, Eigen::EigenvaluesOnly);
+    if (!(eig.eigenvalues()(0) > 1e-3 * eig.eigenvalues()(1))) return false;
+    value = AtA.ldlt().solve(AtR).row(0);
+    return value.allFinite();
+  };
+
+  const bool measured = options.targetVolumes.size() == nt;
+  auto misfit = [&](int t, double volume6) {  // (a tet without a positive target does not count)
+    const double target = options.targetVolumes(t);
+    if (!(target > 0) || !std::isfinite(target)) return 0.0;
+    const double l = std::log(volume6 / (6 * target));
+    return l * l;
+  };
+  std::vector<double> before;
+  double misfitBefore = 0;
+  auto acceptable = [&](int i) {
+    double misfitAfter = 0;
+    for (int k = tetsOf.begin(i), n = 0; k < tetsOf.end(i); ++k, ++n) {
+      const int t = tetsOf.items[static_cast<size_t>(k)];
+      if (orient(P.row(T(t, 0)), P.row(T(t, 1)), P.row(T(t, 2)), P.row(T(t, 3))) <= 0) return false;
+      const double v = tetVolume6(P, T, t);
+      if (v < options.minVolumeKept * before[static_cast<size_t>(n)]) return false;
+      if (measured) misfitAfter += misfit(t, v);
+    }
+    if (measured && misfitAfter > misfitBefore) return false;
+    for (int k = facesOf.begin(i); k < facesOf.end(i); ++k) {
+      const int f = facesOf.items[static_cast<size_t>(k)];
+      if (orient(apex, P.row(faces(f, 0)), P.row(faces(f, 1)), P.row(faces(f, 2))) <= 0) return false;
+    }
+    return true;
+  };
+
+  for (int sweep = 0; sweep < options.sweeps; ++sweep) {
+    for (int i : boundary) {
+      const Eigen::RowVector3d old = P.row(i);
+      Eigen::RowVector3d target;
+      int pinned = 0;
+      if (cube) {
+        pinned = pinnedBits(old);
+        const int count = __builtin_popcount(static_cast<unsigned>(pinned));
+        if (count == 0 || count == 3) continue;  // (not on the cube: left alone; corners stay)
+        std::vector<int> same;
+        for (int j : ring[static_cast<size_t>(i)]) {
+          bool onIt = true;
+          for (int k = 0; k < 3; ++k)
+            if ((pinned >> k & 1) && P(j, k) != old[k]) onIt = false;
+          if (onIt) same.push_back(j);
+        }
+        if (count == 2) {
+          if (same.size() != 2) continue;
+          const double da = (X.row(same[0]) - X.row(i)).norm(), db = (X.row(same[1]) - X.row(i)).norm();
+          if (!(da + db > 0)) continue;
+          target = (db * P.row(same[0]) + da * P.row(same[1])) / (da + db);
+        } else {
+          if (!localFit(i, same, target)) continue;
+        }
+      } else if (!localFit(i, ring[static_cast<size_t>(i)], target)) {
+        continue;
+      }
+      before.clear();
+      misfitBefore = 0;
+      for (int k = tetsOf.begin(i); k < tetsOf.end(i); ++k) {
+        const int t = tetsOf.items[static_cast<size_t>(k)];
+        before.push_back(tetVolume6(P, T, t));
+        if (measured) misfitBefore += misfit(t, before.back());
+      }
+      double s = options.step;
+      bool taken = false;
+      for (int halving = 0; halving <= 4 && !taken; ++halving, s *= 0.5) {
+        Eigen::RowVector3d p = old + s * (target - old);
+        if (cube) {
+          bool inside = true;
+          for (int k = 0; k < 3; ++k) {
+            if (pinned >> k & 1) p[k] = old[k];
+            else if (!(p[k] > 0.0 && p[k] < 1.0)) inside = false;
+          }
+          if (!inside) continue;
+        } else {
+          p /= p.norm();
+        }
+        P.row(i) = p;
+        taken = acceptable(i);
+      }
+      if (taken) {
+        ++result.moves;
+      } else {
+        P.row(i) = old;
+        ++result.refused;
+      }
+    }
+  }
+  double sum = 0;
+  for (int i : boundary) sum += (P.row(i) - U.row(i)).squaredNorm();
+  result.rmsMove = boundary.empty() ? 0 : std::sqrt(sum / static_cast<double>(boundary.size()));
+  return result;
+}
+
+}  // namespace tet2spline
