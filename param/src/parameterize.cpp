@@ -645,6 +645,14 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         spent += u.tetEvaluations;
         return u;
       };
+      // The phases after the first let the whole boundary slide, with the
+      // wider, longer default runs that sliding needs.
+      auto freeTheBoundary = [&] {
+        std::fill(fixed.begin(), fixed.end(), false);
+        untangleOptions.rings = UntangleOptions().rings;
+        untangleOptions.maxLbfgsIterations = UntangleOptions().maxLbfgsIterations;
+        untangleOptions.regionRounds = UntangleOptions().regionRounds;
+      };
       UntangleResult untangled = runPhase(r.U);
       r.param.invertedTetsBeforeUntangling = untangled.invertedBefore;
       // (the untangler counts the flipped boundary triangles, as cones from apex)
@@ -654,10 +662,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         // of its triangles kept out: on the sphere, or on the cube's faces and
         // edges with the coordinates the placement pinned kept (corners never
         // move).
-        std::fill(fixed.begin(), fixed.end(), false);
-        untangleOptions.rings = UntangleOptions().rings;  // sliding needs the wider, longer default runs
-        untangleOptions.maxLbfgsIterations = UntangleOptions().maxLbfgsIterations;
-        untangleOptions.regionRounds = UntangleOptions().regionRounds;
+        freeTheBoundary();
         untangled = runPhase(untangled.U);
         if (options.domain == ParamDomain::Cube && (untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) &&
             !untangled.budgetExhausted && !untangled.stopped) {
@@ -679,10 +684,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       if (options.domain == ParamDomain::Cube && leftOver > 0 && untangled.budgetExhausted && !untangled.stopped &&
           options.untangle.localRepairSweeps > 0 &&
           leftOver <= std::max(100.0, options.untangle.localRepairFraction * static_cast<double>(nt))) {
-        std::fill(fixed.begin(), fixed.end(), false);
-        untangleOptions.rings = UntangleOptions().rings;
-        untangleOptions.maxLbfgsIterations = UntangleOptions().maxLbfgsIterations;
-        untangleOptions.regionRounds = UntangleOptions().regionRounds;
+        freeTheBoundary();
         untangleOptions.cubeAcrossEdges = true;
         UntangleResult finished = runPhase(untangled.U);  // (the budget is spent: one ε round)
         if (finished.stopped) throw Status::failure("stopped during the final untangling");
