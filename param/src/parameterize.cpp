@@ -349,15 +349,6 @@ Eigen::MatrixX3d composeVertices(const Eigen::MatrixX3d& y, const std::vector<in
   return U;
 }
 
-int countFlippedBoundaryTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, const Eigen::Vector3d& apex) {
-  int flipped = 0;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = U.row(F(f, 0)), b = U.row(F(f, 1)), c = U.row(F(f, 2));
-    flipped += orient3d(apex.data(), a.data(), b.data(), c.data()) <= 0;
-  }
-  return flipped;
-}
-
 /// Rings of boundary vertices around a flipped triangle that slide in the
 /// first phase of the final untangling. Measured (cube, final untangling
 /// seconds): triceratops 32 (0 rings), 32 (1), 79 (2), 8 (4); fandisk 3 (2),
@@ -781,7 +772,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
 
     // Figures.
     r.param.invertedTets = countNonPositiveTets(r.U, mesh.T);
-    r.param.flippedBoundaryTriangles = countFlippedBoundaryTriangles(r.U, r.boundaryFaces, apex);
+    r.param.flippedBoundaryTriangles = countFlippedTriangles(r.U, r.boundaryFaces, apex);
     for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) {
       const Eigen::Vector3d u = r.U.row(r.boundaryVertices(k));
       double d = 0;

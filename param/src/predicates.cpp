@@ -39,4 +39,13 @@ int countNonPositiveTets(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T) {
       [](int a, int b) { return a + b; });
 }
 
+int countFlippedTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, const Eigen::Vector3d& apex) {
+  int flipped = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = U.row(F(f, 0)), b = U.row(F(f, 1)), c = U.row(F(f, 2));
+    flipped += orient3d(apex.data(), a.data(), b.data(), c.data()) <= 0;
+  }
+  return flipped;
+}
+
 }  // namespace tet2spline

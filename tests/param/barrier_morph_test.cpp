@@ -12,15 +12,6 @@ using namespace tet2spline;
 
 namespace {
 
-int flippedCones(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, const Eigen::Vector3d& apex) {
-  int flipped = 0;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = U.row(F(f, 0)), b = U.row(F(f, 1)), c = U.row(F(f, 2));
-    flipped += orient3d(apex.data(), a.data(), b.data(), c.data()) <= 0;
-  }
-  return flipped;
-}
-
 // The unit ball meshed (ballGrid) and a target that folds it: every vertex
 // turned about z by an angle growing fast with its radius (boundary vertices
 // stay on the sphere), then a third of them jittered by about an edge.
@@ -71,7 +62,7 @@ TEST_P(BarrierMorphMethods, NeverInvertsTowardsAFoldedTarget) {
       morphTowards(b.mesh.V, b.mesh.T, b.mesh.V, b.target, std::vector<bool>(static_cast<size_t>(b.mesh.V.rows()), false), o);
   EXPECT_TRUE(r.status.ok) << r.status.message;
   EXPECT_EQ(countNonPositiveTets(r.U, b.mesh.T), 0);
-  EXPECT_EQ(flippedCones(r.U, b.faces, Eigen::Vector3d::Zero()), 0);
+  EXPECT_EQ(countFlippedTriangles(r.U, b.faces, Eigen::Vector3d::Zero()), 0);
   for (Eigen::Index f = 0; f < b.faces.rows(); ++f)
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(r.U.row(b.faces(f, k)).norm(), 1, 1e-14);
   EXPECT_LT(r.distance, 0.5 * r.startDistance) << "start " << r.startDistance << ", end " << r.distance;
@@ -97,7 +88,7 @@ TEST(BarrierMorph, ReachesABijectiveTargetOnTheCube) {
   const std::vector<bool> none(static_cast<size_t>(m.V.rows()), false);
   const BarrierMorphResult r = morphTowards(m.V, m.T, m.V, target, none, o);
   EXPECT_EQ(countNonPositiveTets(r.U, m.T), 0);
-  EXPECT_EQ(flippedCones(r.U, faces, Eigen::Vector3d(0.5, 0.5, 0.5)), 0);
+  EXPECT_EQ(countFlippedTriangles(r.U, faces, Eigen::Vector3d(0.5, 0.5, 0.5)), 0);
   EXPECT_GT(r.startDistance, 0.3);
   EXPECT_LT(r.maxDistance, 0.1) << "rms " << r.distance;
   // What is left is the shape term's pull, which falls like 1/λ.

@@ -26,15 +26,6 @@ const Eigen::Vector3d kShift(0.4, -1.0, 2.5);
 
 Eigen::MatrixX3d pointField(const TetMesh& m, const std::string& name) { return m.pointField(name)->values; }
 
-int flippedFaces(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, const Eigen::Vector3d& apex) {
-  int n = 0;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = U.row(F(f, 0)), b = U.row(F(f, 1)), c = U.row(F(f, 2));
-    n += orient3d(apex.data(), a.data(), b.data(), c.data()) <= 0;
-  }
-  return n;
-}
-
 std::vector<char> boundaryMask(Eigen::Index nv, const Eigen::MatrixX3i& F) {
   std::vector<char> b(static_cast<size_t>(nv), 0);
   for (Eigen::Index f = 0; f < F.rows(); ++f)
@@ -48,7 +39,7 @@ std::vector<char> boundaryMask(Eigen::Index nv, const Eigen::MatrixX3i& F) {
 void expectCubeInvariants(const Eigen::MatrixX3d& before, const Eigen::MatrixX3d& after, const Eigen::MatrixX4i& T,
                           const Eigen::MatrixX3i& F) {
   EXPECT_EQ(countNonPositiveTets(after, T), 0);
-  EXPECT_EQ(flippedFaces(after, F, Eigen::Vector3d(0.5, 0.5, 0.5)), 0);
+  EXPECT_EQ(countFlippedTriangles(after, F, Eigen::Vector3d(0.5, 0.5, 0.5)), 0);
   const std::vector<char> onBoundary = boundaryMask(before.rows(), F);
   for (Eigen::Index i = 0; i < before.rows(); ++i) {
     if (!onBoundary[static_cast<size_t>(i)]) {
@@ -122,7 +113,7 @@ TEST(BoundarySmoothing, RemovesTangentialNoiseOnTheSphere) {
   std::printf("noise %.4g -> %.4g (%ld moves, %ld refused)\n", before, after, r.moves, r.refused);
   EXPECT_LT(after, 0.6 * before);
   EXPECT_EQ(countNonPositiveTets(r.U, m.T), 0);
-  EXPECT_EQ(flippedFaces(r.U, F, Eigen::Vector3d::Zero()), 0);
+  EXPECT_EQ(countFlippedTriangles(r.U, F, Eigen::Vector3d::Zero()), 0);
   for (Eigen::Index i = 0; i < U.rows(); ++i) {
     if (onBoundary[static_cast<size_t>(i)]) {
       ASSERT_NEAR(r.U.row(i).norm(), 1.0, 1e-15) << "vertex " << i;
@@ -191,7 +182,7 @@ TEST_P(BoundarySmoothingReal, KeepsTheMapValidAndTheBoundaryOnTheDomain) {
     expectCubeInvariants(p.U, r.U, p.mesh.T, p.boundaryFaces);
   } else {
     EXPECT_EQ(countNonPositiveTets(r.U, p.mesh.T), 0);
-    EXPECT_EQ(flippedFaces(r.U, p.boundaryFaces, Eigen::Vector3d::Zero()), 0);
+    EXPECT_EQ(countFlippedTriangles(r.U, p.boundaryFaces, Eigen::Vector3d::Zero()), 0);
     const std::vector<char> onBoundary = boundaryMask(p.U.rows(), p.boundaryFaces);
     for (Eigen::Index i = 0; i < p.U.rows(); ++i) {
       if (onBoundary[static_cast<size_t>(i)]) {

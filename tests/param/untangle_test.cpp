@@ -435,12 +435,7 @@ TEST_P(UntangleMethods, BoundarySlidesOnTheSphereAndNothingFlips) {
     for (int d = 0; d < 3; ++d) U(v, d) += jitter(rng);
     if (onSphere[static_cast<size_t>(v)]) U.row(v).normalize();
   }
-  const Eigen::Vector3d origin(0, 0, 0);
-  int flippedBefore = 0;
-  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
-    const Eigen::Vector3d a = U.row(faces(f, 0)), b = U.row(faces(f, 1)), c = U.row(faces(f, 2));
-    flippedBefore += orient3d(origin.data(), a.data(), b.data(), c.data()) <= 0;
-  }
+  const int flippedBefore = countFlippedTriangles(U, faces, Eigen::Vector3d::Zero());
   ASSERT_GT(flippedBefore, 0);
   ASSERT_GT(countNonPositiveTets(U, m.T), 0);
   UntangleOptions o;

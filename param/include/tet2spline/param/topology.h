@@ -119,4 +119,9 @@ bool collinear(const double* a, const double* b, const double* c);
 /// Number of tets of (X, T) with exact orientation <= 0.
 int countNonPositiveTets(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T);
 
+/// Number of triangles F (indexing U) that are flipped as seen from `apex`:
+/// exact orient3d(apex, U_a, U_b, U_c) <= 0 (the boundary of a domain
+/// star-shaped from apex, e.g. the cube from its centre).
+int countFlippedTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, const Eigen::Vector3d& apex);
+
 }  // namespace tet2spline
