@@ -5,35 +5,12 @@
 #include <cmath>
 #include <string>
 
+#include "spd_solver.h"
 #include "tet2spline/param/error.h"
 #include "tet2spline/param/topology.h"
 
 namespace tet2spline {
 namespace {
-
-// Compressed rows: the items of key k are items[start[k] .. start[k+1]).
-struct Rows {
-  std::vector<int> start, items;
-  int begin(int k) const { return start[static_cast<size_t>(k)]; }
-  int end(int k) const { return start[static_cast<size_t>(k) + 1]; }
-};
-
-template <class Each>
-Rows buildRows(Eigen::Index keys, Eigen::Index count, int perItem, Each each) {
-  Rows r;
-  r.start.assign(static_cast<size_t>(keys) + 1, 0);
-  for (Eigen::Index i = 0; i < count; ++i)
-    for (int c = 0; c < perItem; ++c) ++r.start[static_cast<size_t>(each(i, c).first) + 1];
-  for (size_t k = 1; k < r.start.size(); ++k) r.start[k] += r.start[k - 1];
-  r.items.resize(static_cast<size_t>(r.start.back()));
-  std::vector<int> fill(r.start.begin(), r.start.end() - 1);
-  for (Eigen::Index i = 0; i < count; ++i)
-    for (int c = 0; c < perItem; ++c) {
-      const auto [key, item] = each(i, c);
-      r.items[static_cast<size_t>(fill[static_cast<size_t>(key)]++)] = item;
-    }
-  return r;
-}
 
 double tetVolume6(const Eigen::MatrixX3d& P, const Eigen::MatrixX4i& T, int t) {
   const Eigen::Vector3d a = P.row(T(t, 0));
@@ -76,13 +53,13 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
   const bool cube = options.shape == BoundaryShape::UnitCube;
   const Eigen::Vector3d apex = cube ? Eigen::Vector3d(0.5, 0.5, 0.5) : Eigen::Vector3d::Zero();
 
-  const Rows tetsOf = buildRows(nv, nt, 4, [&](Eigen::Index t, int c) { return std::pair<int, int>(T(t, c), int(t)); });
-  const Rows facesOf =
-      buildRows(nv, faces.rows(), 3, [&](Eigen::Index f, int c) { return std::pair<int, int>(faces(f, c), int(f)); });
-
+  const detail::VertexTets tetsOf = detail::vertexTets(nv, T);  // corners 4t + k per vertex
+  std::vector<std::vector<int>> facesOf(static_cast<size_t>(nv));
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int c = 0; c < 3; ++c) facesOf[static_cast<size_t>(faces(f, c))].push_back(static_cast<int>(f));
   std::vector<int> boundary;
   for (Eigen::Index i = 0; i < nv; ++i)
-    if (facesOf.end(int(i)) > facesOf.begin(int(i))) boundary.push_back(int(i));
+    if (!facesOf[static_cast<size_t>(i)].empty()) boundary.push_back(static_cast<int>(i));
 
   // Boundary neighbours of each boundary vertex, and its tangent plane in X.
   std::vector<std::vector<int>> ring(static_cast<size_t>(nv));
@@ -90,8 +67,7 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
   for (int i : boundary) {
     std::vector<int>& r = ring[static_cast<size_t>(i)];
     Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-    for (int k = facesOf.begin(i); k < facesOf.end(i); ++k) {
-      const int f = facesOf.items[static_cast<size_t>(k)];
+    for (int f : facesOf[static_cast<size_t>(i)]) {
       for (int c = 0; c < 3; ++c)
         if (faces(f, c) != i) r.push_back(faces(f, c));
       const Eigen::Vector3d a = X.row(faces(f, 0)), b = X.row(faces(f, 1)), c = X.row(faces(f, 2));
@@ -140,16 +116,15 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
   double misfitBefore = 0;
   auto acceptable = [&](int i) {
     double misfitAfter = 0;
-    for (int k = tetsOf.begin(i), n = 0; k < tetsOf.end(i); ++k, ++n) {
-      const int t = tetsOf.items[static_cast<size_t>(k)];
+    for (int k = tetsOf.offset[static_cast<size_t>(i)], n = 0; k < tetsOf.offset[static_cast<size_t>(i) + 1]; ++k, ++n) {
+      const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
       if (orient(P.row(T(t, 0)), P.row(T(t, 1)), P.row(T(t, 2)), P.row(T(t, 3))) <= 0) return false;
       const double v = tetVolume6(P, T, t);
       if (v < options.minVolumeKept * before[static_cast<size_t>(n)]) return false;
       if (measured) misfitAfter += misfit(t, v);
     }
     if (measured && misfitAfter > misfitBefore) return false;
-    for (int k = facesOf.begin(i); k < facesOf.end(i); ++k) {
-      const int f = facesOf.items[static_cast<size_t>(k)];
+    for (int f : facesOf[static_cast<size_t>(i)]) {
       if (orient(apex, P.row(faces(f, 0)), P.row(faces(f, 1)), P.row(faces(f, 2))) <= 0) return false;
     }
     return true;
@@ -184,8 +159,8 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
       }
       before.clear();
       misfitBefore = 0;
-      for (int k = tetsOf.begin(i); k < tetsOf.end(i); ++k) {
-        const int t = tetsOf.items[static_cast<size_t>(k)];
+      for (int k = tetsOf.offset[static_cast<size_t>(i)]; k < tetsOf.offset[static_cast<size_t>(i) + 1]; ++k) {
+        const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
         before.push_back(tetVolume6(P, T, t));
         if (measured) misfitBefore += misfit(t, before.back());
       }
