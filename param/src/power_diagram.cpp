@@ -379,10 +379,25 @@ using RegularTriangulation = CGAL::Regular_triangulation_3<K, Tds>;
 // stays below ~1e-10 of the tet's size.
 constexpr double kDualFlatness = 1e-6;
 
-// The radical plane of sites y_i, y_j (weights wi, wj) in coordinates local
+// The radical plane of sites y_i, y_j (weights ψ_i, ψ_j) in coordinates local
 // to y_i is { x : x · d = c } with d = y_j − y_i and this c: the side
 // x · d <= c is where y_i's power distance is the smaller.
-double radicalOffset(const Eigen::Vector3d& d, double wi, double wj) { return 0.5 * (d.squaredNorm() - (wj - wi)); }
+double radicalOffset(const Eigen::Vector3d& d, double weightDifference /* ψ_j − ψ_i */) {
+  return 0.5 * (d.squaredNorm() - weightDifference);
+}
+
+// ψ_j − ψ_i from the weights and their optional tails (ψ = weight + tail,
+// see computePowerDiagram). For neighbouring sites ψ_i and ψ_j are close,
+// so weight[j] − weight[i] is exact and the difference keeps the tails'
+// precision.
+struct WeightDifference {
+  const Eigen::VectorXd& weight;
+  const Eigen::VectorXd* tail;
+  double operator()(int i, int j) const {
+    const double head = weight[j] - weight[i];
+    return tail ? head + ((*tail)[j] - (*tail)[i]) : head;
+  }
+};
 
 // kEvenCompletion[q][r] = a for q ≠ r: the slot a such that (q, r, a, b) is
 // an even permutation of (0, 1, 2, 3), b the fourth slot.
@@ -515,8 +530,9 @@ namespace {
 
 // The diagram of sites in a spatially coherent order (see computePowerDiagram):
 // neighbouring sites, their tets and their rows are close in memory.
-PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights, const Domain& domain,
-                                  CellMeasure measure) {
+PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
+                                  const Eigen::VectorXd* tails, const Domain& domain, CellMeasure measure) {
+  const WeightDifference weightDifference{weights, tails};
   const int n = static_cast<int>(points.rows());
   PowerDiagram pd;
   pd.volumes = Eigen::VectorXd::Zero(n);
@@ -637,7 +653,7 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
         double c[3];
         for (int k = 0; k < 3; ++k) {
           d[k] = points.row(tv[k + 1]).transpose() - y0;
-          c[k] = radicalOffset(d[k], weights[tv[0]], weights[tv[k + 1]]);
+          c[k] = radicalOffset(d[k], weightDifference(tv[0], tv[k + 1]));
         }
         const Eigen::Vector3d x12 = d[1].cross(d[2]), x20 = d[2].cross(d[0]), x01 = d[0].cross(d[1]);
         const double det = d[0].dot(x12);
@@ -681,7 +697,7 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
           const int j = pd.neighbour[k];
           ds.slot[j] = k - b;
           const Eigen::Vector3d d = site[j] - y;
-          const double c = radicalOffset(d, weights[i], weights[j]);
+          const double c = radicalOffset(d, weightDifference(i, j));
           ds.foot[k - b] = (c / d.squaredNorm()) * d;
           ds.area[k - b].setZero();
         }
@@ -735,7 +751,7 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
       for (int k = b; k < e && !cell.empty(); ++k) {
         const int j = pd.neighbour[k];
         const Eigen::Vector3d d = points.row(j).transpose() - y;
-        const double c = radicalOffset(d, weights[i], weights[j]);
+        const double c = radicalOffset(d, weightDifference(i, j));
         if (c > 0 && c * c >= cell.radius2() * d.squaredNorm()) continue;
         cell.clip(d, c, k - b);
       }
@@ -790,15 +806,21 @@ std::vector<int> spatialOrder(const Eigen::MatrixX3d& points) {
 }
 
 PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
-                                 const Domain& domain, CellMeasure measure, bool presorted) {
+                                 const Domain& domain, CellMeasure measure, bool presorted,
+                                 const Eigen::VectorXd* weightTails) {
   const int n = static_cast<int>(points.rows());
   if (weights.size() != points.rows()) {
     std::ostringstream msg;
     msg << "computePowerDiagram: " << points.rows() << " points but " << weights.size() << " weights";
     throw Error(ErrorKind::Usage, msg.str());
   }
+  if (weightTails && weightTails->size() != points.rows()) {
+    std::ostringstream msg;
+    msg << "computePowerDiagram: " << points.rows() << " points but " << weightTails->size() << " weight tails";
+    throw Error(ErrorKind::Usage, msg.str());
+  }
   for (int i = 0; i < n; ++i)
-    if (!points.row(i).allFinite() || !std::isfinite(weights[i])) {
+    if (!points.row(i).allFinite() || !std::isfinite(weights[i]) || (weightTails && !std::isfinite((*weightTails)[i]))) {
       std::ostringstream msg;
       msg << "computePowerDiagram: point " << i << " (" << points(i, 0) << ", " << points(i, 1) << ", "
           << points(i, 2) << ") with weight " << weights[i] << " is not finite";
@@ -806,7 +828,7 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     }
 
 
-  if (presorted) return diagramOfSortedSites(points, weights, domain, measure);
+  if (presorted) return diagramOfSortedSites(points, weights, weightTails, domain, measure);
 
   // Work in Hilbert order: with the sites in input order (random, for the
   // OT benchmark) every neighbour lookup was a cache miss, and the dual
@@ -814,13 +836,15 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
   auto t0 = Clock::now();
   const std::vector<int> order = spatialOrder(points);
   Eigen::MatrixX3d sortedPoints(n, 3);
-  Eigen::VectorXd sortedWeights(n);
+  Eigen::VectorXd sortedWeights(n), sortedTails(weightTails ? n : 0);
   for (int r = 0; r < n; ++r) {
     sortedPoints.row(r) = points.row(order[r]);
     sortedWeights[r] = weights[order[r]];
+    if (weightTails) sortedTails[r] = (*weightTails)[order[r]];
   }
   const double sortSeconds = secondsSince(t0);
-  const PowerDiagram sorted = diagramOfSortedSites(sortedPoints, sortedWeights, domain, measure);
+  const PowerDiagram sorted =
+      diagramOfSortedSites(sortedPoints, sortedWeights, weightTails ? &sortedTails : nullptr, domain, measure);
 
   // Back to the input order: rows moved, neighbour ids renamed, each row
   // sorted again by id with its areas.

@@ -176,6 +176,37 @@ TEST(PowerDiagram, AddingAConstantToTheWeightsChangesNothing) {
   EXPECT_LT((a.centroids - b.centroids).cwiseAbs().maxCoeff(), 1e-10);
 }
 
+// ψ = weights + weightTails: the tails keep the precision a double ψ lacks.
+// A constant K = 10⁶ added to small weights rounds each head to 1.2e-10
+// (what happens to a double ψ of order 0.1 at the scale of 10⁻¹³ cells);
+// with the exact remainders as tails the diagram is that of the unshifted
+// weights, on both measures and both orders, and without them it is not.
+TEST(PowerDiagram, WeightTailsCarryThePrecisionTheWeightsLose) {
+  const Eigen::MatrixX3d y = randomPoints(500, 21);
+  const Eigen::VectorXd psi = 1e-3 * Eigen::VectorXd::Random(500);
+  const double shift = 1e6;
+  Eigen::VectorXd heads(500), tails(500);
+  for (int i = 0; i < 500; ++i) {
+    heads[i] = psi[i] + shift;
+    tails[i] = psi[i] - (heads[i] - shift);  // exact: heads[i] - shift is exact (Sterbenz)
+  }
+  ASSERT_GT(tails.cwiseAbs().maxCoeff(), 0) << "the shift must round the weights";
+  const double meanVolume = 1.0 / 500;
+  for (const CellMeasure measure : {CellMeasure::DualWhereInside, CellMeasure::ClipAll}) {
+    const PowerDiagram reference = computePowerDiagram(y, psi, Domain::unitCube(), measure);
+    for (const bool presorted : {false, true}) {
+      const PowerDiagram withTails = computePowerDiagram(y, heads, Domain::unitCube(), measure, presorted, &tails);
+      EXPECT_LT((withTails.volumes - reference.volumes).cwiseAbs().maxCoeff(), 1e-12 * meanVolume);
+      EXPECT_LT((withTails.centroids - reference.centroids).cwiseAbs().maxCoeff(), 1e-12);
+    }
+    const PowerDiagram headsOnly = computePowerDiagram(y, heads, Domain::unitCube(), measure);
+    EXPECT_GT((headsOnly.volumes - reference.volumes).cwiseAbs().maxCoeff(), 1e-10 * meanVolume);
+  }
+  const Eigen::VectorXd shortTails = Eigen::VectorXd::Zero(499);
+  EXPECT_THROW(computePowerDiagram(y, heads, Domain::unitCube(), CellMeasure::DualWhereInside, false, &shortTails),
+               Error);
+}
+
 TEST(PowerDiagram, HiddenSitesHaveEmptyCells) {
   Eigen::MatrixX3d y = randomPoints(200, 6);
   Eigen::VectorXd psi = Eigen::VectorXd::Zero(200);

@@ -25,6 +25,11 @@
 /// of magnitude ‖g‖ reaches the big cells' rounding noise before the small
 /// cells meet the relative tolerance (hand.off meshed with a 15° dihedral
 /// bound: ν from 2.9e-13 to 1e-3, stalled at 6e-6; converges to 8e-9).
+/// When even that finds no step, ψ_i is carried on in two doubles, a head
+/// and a tail (power_diagram.h weightTails): with one, ψ's rounding alone
+/// moved the smallest cells of hand.off's default TetGen mesh (cube) by
+/// about 10⁻⁶ of their volume, and the solve stalled at 1.37e-6 and failed.
+/// `weights` returns head + tail, rounded.
 ///
 /// Start ψ0 (default `ScaledVoronoi`): ψ_i = (1 − λ)|y_i − c|², c the centre of
 /// Ω, with the largest λ > 0 such that every z_i = c + λ(y_i − c) lies in the
@@ -117,7 +122,7 @@ struct OptimalTransportResult {
   std::vector<OtIterationStats> iterationStats;
   double startSeconds = 0;             ///< validation, merging and the diagram of ψ0
   int mergedPoints = 0;                ///< points merged into a coincident one
-  int solverSwitches = 0;              ///< CG tolerance tightenings, switches to CHOLMOD and to the relative merit (see the .cpp)
+  int solverSwitches = 0;              ///< CG tolerance tightenings, switches to CHOLMOD, to the relative merit and to ψ in two doubles (see the .cpp)
   Status status;                       ///< ok, or why it stopped
 };
 
