@@ -91,8 +91,6 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
         active.push_back(static_cast<int>(t));
         break;
       }
-  std::vector<int> activeIndex(static_cast<size_t>(ntx), -1);
-  for (size_t a = 0; a < active.size(); ++a) activeIndex[static_cast<size_t>(active[a])] = static_cast<int>(a);
 
   // Reference shapes: the input tets (the energy is scale-free).
   std::vector<Eigen::Matrix<double, 3, 4>> grad(static_cast<size_t>(ntx));
@@ -104,6 +102,7 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
     grad[static_cast<size_t>(t)] = barycentricGradients(a, b, c, d);
   }
   const detail::VertexTets vt = detail::vertexTets(nvx, T);
+  const std::vector<int> cornerSlot = detail::cornerSlots(vt);
 
   // ℓ_v: the edge of a regular tet of the mean target volume around v (or the
   // target's mean edge there).
@@ -145,7 +144,7 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
   }
   Eigen::MatrixX3d base(static_cast<Eigen::Index>(nFree), 3);
   Eigen::VectorXd precond(nvx);
-  std::vector<Eigen::Matrix<double, 3, 4>> tetGrad(active.size());
+  std::vector<Eigen::Vector3d> cornerGrad(vt.corner.size());  // per corner of vt: the gradient term of its vertex
   double lambda = 0;
 
   auto place = [&](size_t k, const Eigen::Vector3d& y) {
@@ -177,7 +176,10 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
             if (!(D > 0)) return std::numeric_limits<double>::infinity();  // the barrier
             Eigen::Matrix3d dJ;
             sum += detail::untangleEnergy(J, 0, 0, g ? &dJ : nullptr);  // ε = 0, shape term only
-            if (g) tetGrad[a] = dJ * G;
+            if (g) {
+              const Eigen::Matrix<double, 3, 4> tetGrad = dJ * G;  // column k: gradient with respect to vertex k
+              for (int k = 0; k < 4; ++k) cornerGrad[static_cast<size_t>(cornerSlot[4 * static_cast<size_t>(t) + k])] = tetGrad.col(k);
+            }
           }
           return sum;
         },
@@ -193,10 +195,8 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
         for (size_t k = r.begin(); k != r.end(); ++k) {
           const int v = freeVerts[k];
           Eigen::Vector3d s = 2 * lambda * invEllSq[v] * (W.row(v) - target.row(v)).transpose();
-          for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e) {
-            const int a = activeIndex[static_cast<size_t>(vt.corner[static_cast<size_t>(e)] / 4)];
-            s += tetGrad[static_cast<size_t>(a)].col(vt.corner[static_cast<size_t>(e)] % 4);
-          }
+          for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e)
+            s += cornerGrad[static_cast<size_t>(e)];
           const Eigen::Vector3d y = unknown(k, x);
           if (slide[static_cast<size_t>(v)] == kSphere) {
             s = detail::sphereGradient(y, s);

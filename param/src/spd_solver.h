@@ -59,4 +59,18 @@ inline VertexTets vertexTets(Eigen::Index numVertices, const Eigen::MatrixX4i& T
   return vt;
 }
 
+/// The inverse of vt.corner: slot[4·t + k] = e where vt.corner[e] = 4·t + k.
+/// A per-tet loop that writes each corner's term to slot[4·t + k] leaves
+/// every vertex's terms contiguous and in vt's order, so a per-vertex sum
+/// reads them in sequence. Measured on homer's cube parameterization:
+/// gathering the 3 × 4 per-tet gradients through a tet index took 26% of
+/// the run's samples. Writing per corner instead took the final untangling
+/// from 44.0 and 42.5 s to 32.7 and 36.1 s (two runs each), and bunny00's
+/// from 298 s to 238 s; the maps are bitwise the same.
+inline std::vector<int> cornerSlots(const VertexTets& vt) {
+  std::vector<int> slot(vt.corner.size());
+  for (size_t e = 0; e < vt.corner.size(); ++e) slot[static_cast<size_t>(vt.corner[e])] = static_cast<int>(e);
+  return slot;
+}
+
 }  // namespace tet2spline::detail

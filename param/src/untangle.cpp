@@ -347,6 +347,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   if (options.relax && options.targetVolumes.size() == nt)
     weight.head(nt) = options.targetVolumes / options.targetVolumes.mean();
   const detail::VertexTets vt = detail::vertexTets(nvx, T);
+  const std::vector<int> cornerSlot = detail::cornerSlots(vt);  // (see spd_solver.h)
   // Per-vertex mean weight of the incident tets (cones get their vertices').
   Eigen::VectorXd starWeight = Eigen::VectorXd::Zero(nvx);
   for (Eigen::Index v = 0; v < nv; ++v) {
@@ -424,9 +425,10 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     if (freeVerts.empty() || freeVerts.size() == previousFree) break;  // nothing new to move
     previousFree = freeVerts.size();
 
-    std::vector<int> activeIndex(static_cast<size_t>(ntx), -1);
-    for (size_t a = 0; a < active.size(); ++a) activeIndex[active[a]] = static_cast<int>(a);
-    std::vector<Eigen::Matrix<double, 3, 4>> tetGrad(active.size());
+    // Per corner of vt (4 #tets entries; those of the active tets are set
+    // by every gradient evaluation): the energy's gradient with respect to
+    // that corner's vertex.
+    std::vector<Eigen::Vector3d> cornerGrad(vt.corner.size());
     std::vector<double> det(active.size());
     double e0 = 1e-3;
     double eps = 1;
@@ -470,7 +472,8 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               sum += weight[t] * detail::untangleEnergy(J, eps, options.theta, g ? &dJ : nullptr);
               if (g) {
                 const Eigen::Matrix3d wdJ = weight[t] * dJ;
-                tetGrad[a] = wdJ * G;  // column k: gradient with respect to vertex k
+                const Eigen::Matrix<double, 3, 4> tetGrad = wdJ * G;  // column k: gradient with respect to vertex k
+                for (int k = 0; k < 4; ++k) cornerGrad[static_cast<size_t>(cornerSlot[4 * static_cast<size_t>(t) + k])] = tetGrad.col(k);
               }
             }
             return sum;
@@ -482,7 +485,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
             const int v = freeVerts[k];
             Eigen::Vector3d s = Eigen::Vector3d::Zero();
             for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e)
-              s += tetGrad[static_cast<size_t>(activeIndex[vt.corner[e] / 4])].col(vt.corner[e] % 4);
+              s += cornerGrad[static_cast<size_t>(e)];
             const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
             if (slide[v] == kSphere) {  // chain rule through y ↦ y/|y|
               s = detail::sphereGradient(y, s);
