@@ -48,6 +48,22 @@
 // with 1e-12 of their mass (the harmonic map crushes the ears; 10% of the
 // tets have a ball/physical volume ratio below 3e-7), and the line search's
 // first safe step is 2^-33, then doubles once per iteration.
+// Measured 2026-12-04 (commit 6cfec9d), machine otherwise idle:
+//   181k: 16.25, 16.21, 15.91 s (median 16.2 s; target 15), 10 iterations,
+//   14 diagrams: triangulation 10.0–10.2 s (0.72 s per diagram, of which
+//   CGAL's range insertion is 0.63–0.74 s and the copy into flat arrays
+//   0.03–0.12 s), clipping 2.0 s, linear solve 2.0–2.1 s, start 1.5 s;
+//   297 MiB. Copying the cells on both cores (a handle vector, then a
+//   parallel loop) measured slower (18.3–19.8 s) and was dropped; inserting
+//   the presorted sites one by one with a hint, in Hilbert or in BRIO order,
+//   took 0.75–1.0 s against CGAL's range insertion's 0.6 s.
+//   bunny00's cube problem (--points, 181313 sites from `param`, since the
+//   nearly equiareal sphere): 23 iterations, 40 diagrams, 68.5 s:
+//   triangulation 25.4 s, clipping 11.1 s, linear solve 29.9 s. The damped
+//   start (steps 2^-13 .. 2^-2) tightens the CG tolerance to 1e-9 and every
+//   later solve takes 400–1200 CG iterations; loosening it 100-fold after
+//   each step >= 1/2 cut the solves to 26.9 s with the same steps, not
+//   landed (it changes every mesh's transport in the last bits).
 #include <sys/resource.h>
 
 #include <chrono>
