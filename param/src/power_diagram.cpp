@@ -387,8 +387,9 @@ double radicalOffset(const Eigen::Vector3d& d, double weightDifference /* ψ_j �
 }
 
 // ψ_j − ψ_i from the weights and their optional tails (ψ = weight + tail,
-// see computePowerDiagram). For neighbouring sites ψ_i and ψ_j are close,
-// so weight[j] − weight[i] is exact and the difference keeps the tails'
+// see computePowerDiagram). weight[j] − weight[i] is exact when the two are
+// within a factor 2 of each other (Sterbenz), as neighbours' weights are
+// where the tails matter, and the difference then keeps the tails'
 // precision.
 struct WeightDifference {
   const Eigen::VectorXd& weight;
@@ -823,7 +824,9 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     if (!points.row(i).allFinite() || !std::isfinite(weights[i]) || (weightTails && !std::isfinite((*weightTails)[i]))) {
       std::ostringstream msg;
       msg << "computePowerDiagram: point " << i << " (" << points(i, 0) << ", " << points(i, 1) << ", "
-          << points(i, 2) << ") with weight " << weights[i] << " is not finite";
+          << points(i, 2) << ") with weight " << weights[i];
+      if (weightTails) msg << " + " << (*weightTails)[i];
+      msg << " is not finite";
       throw Error(ErrorKind::Input, msg.str());
     }
 

@@ -205,6 +205,15 @@ TEST(PowerDiagram, WeightTailsCarryThePrecisionTheWeightsLose) {
   const Eigen::VectorXd shortTails = Eigen::VectorXd::Zero(499);
   EXPECT_THROW(computePowerDiagram(y, heads, Domain::unitCube(), CellMeasure::DualWhereInside, false, &shortTails),
                Error);
+  Eigen::VectorXd badTails = tails;
+  badTails[7] = std::nan("");
+  try {
+    computePowerDiagram(y, heads, Domain::unitCube(), CellMeasure::DualWhereInside, false, &badTails);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Input);
+    EXPECT_NE(std::string(e.what()).find("point 7"), std::string::npos) << e.what();
+  }
 }
 
 TEST(PowerDiagram, HiddenSitesHaveEmptyCells) {
