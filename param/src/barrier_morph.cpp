@@ -102,7 +102,6 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
     grad[static_cast<size_t>(t)] = barycentricGradients(a, b, c, d);
   }
   const detail::VertexTets vt = detail::vertexTets(nvx, T);
-  const std::vector<int> cornerSlot = detail::cornerSlots(vt);
 
   // ℓ_v: the edge of a regular tet of the mean target volume around v (or the
   // target's mean edge there).
@@ -144,7 +143,7 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
   }
   Eigen::MatrixX3d base(static_cast<Eigen::Index>(nFree), 3);
   Eigen::VectorXd precond(nvx);
-  std::vector<Eigen::Vector3d> cornerGrad(vt.corner.size());  // per corner of vt: the gradient term of its vertex
+  detail::CornerTerms cornerGrad(vt);  // per corner: the shape energy's gradient with respect to its vertex
   double lambda = 0;
 
   auto place = [&](size_t k, const Eigen::Vector3d& y) {
@@ -176,10 +175,7 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
             if (!(D > 0)) return std::numeric_limits<double>::infinity();  // the barrier
             Eigen::Matrix3d dJ;
             sum += detail::untangleEnergy(J, 0, 0, g ? &dJ : nullptr);  // ε = 0, shape term only
-            if (g) {
-              const Eigen::Matrix<double, 3, 4> tetGrad = dJ * G;  // column k: gradient with respect to vertex k
-              for (int k = 0; k < 4; ++k) cornerGrad[static_cast<size_t>(cornerSlot[4 * static_cast<size_t>(t) + k])] = tetGrad.col(k);
-            }
+            if (g) cornerGrad.set(t, dJ * G);  // column k: gradient with respect to vertex k
           }
           return sum;
         },
@@ -195,8 +191,7 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
         for (size_t k = r.begin(); k != r.end(); ++k) {
           const int v = freeVerts[k];
           Eigen::Vector3d s = 2 * lambda * invEllSq[v] * (W.row(v) - target.row(v)).transpose();
-          for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e)
-            s += cornerGrad[static_cast<size_t>(e)];
+          cornerGrad.addTo(v, s);
           const Eigen::Vector3d y = unknown(k, x);
           if (slide[static_cast<size_t>(v)] == kSphere) {
             s = detail::sphereGradient(y, s);

@@ -7,6 +7,7 @@
 #include <Eigen/SparseCore>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace tet2spline::detail {
 
@@ -59,18 +60,34 @@ inline VertexTets vertexTets(Eigen::Index numVertices, const Eigen::MatrixX4i& T
   return vt;
 }
 
-/// The inverse of vt.corner: slot[4·t + k] = e where vt.corner[e] = 4·t + k.
-/// A per-tet loop that writes each corner's term to slot[4·t + k] leaves
-/// every vertex's terms contiguous and in vt's order, so a per-vertex sum
-/// reads them in sequence. Measured on homer's cube parameterization:
-/// gathering the 3 × 4 per-tet gradients through a tet index took 26% of
-/// the run's samples. Writing per corner instead took the final untangling
-/// from 44.0 and 42.5 s to 32.7 and 36.1 s (two runs each), and bunny00's
-/// from 298 s to 238 s; the maps are bitwise the same.
-inline std::vector<int> cornerSlots(const VertexTets& vt) {
-  std::vector<int> slot(vt.corner.size());
-  for (size_t e = 0; e < vt.corner.size(); ++e) slot[static_cast<size_t>(vt.corner[e])] = static_cast<int>(e);
-  return slot;
-}
+/// Per-corner terms of a sum over each vertex's tets (a gradient): a per-tet
+/// loop sets the four terms of tet t, and a per-vertex loop adds those of
+/// vertex v in vt's order. The terms are stored at the corners' places in
+/// vt.corner, so each vertex's are contiguous and read in sequence.
+/// Measured on homer's cube parameterization: gathering the 3 × 4 per-tet
+/// gradients through a tet index took 26% of the run's samples; storing
+/// them per corner took the final untangling from 44.0 and 42.5 s to 32.7
+/// and 36.1 s (two runs each), and bunny00's from 298 s to 238 s, with
+/// bitwise the same maps.
+class CornerTerms {
+ public:
+  explicit CornerTerms(const VertexTets& vt) : vt_(vt), slot_(vt.corner.size()), term_(vt.corner.size()) {
+    for (size_t e = 0; e < vt.corner.size(); ++e) slot_[static_cast<size_t>(vt.corner[e])] = static_cast<int>(e);
+  }
+  /// Column k: the term of tet t's corner k.
+  void set(int t, const Eigen::Matrix<double, 3, 4>& columns) {
+    for (int k = 0; k < 4; ++k) term_[static_cast<size_t>(slot_[4 * static_cast<size_t>(t) + k])] = columns.col(k);
+  }
+  /// Adds vertex v's terms to s, in vt's order (every tet of v must be set).
+  void addTo(int v, Eigen::Vector3d& s) const {
+    for (int e = vt_.offset[static_cast<size_t>(v)]; e < vt_.offset[static_cast<size_t>(v) + 1]; ++e)
+      s += term_[static_cast<size_t>(e)];
+  }
+
+ private:
+  const VertexTets& vt_;
+  std::vector<int> slot_;  // slot_[4t + k] = e with vt.corner[e] = 4t + k
+  std::vector<Eigen::Vector3d> term_;
+};
 
 }  // namespace tet2spline::detail

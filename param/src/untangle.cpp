@@ -347,7 +347,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   if (options.relax && options.targetVolumes.size() == nt)
     weight.head(nt) = options.targetVolumes / options.targetVolumes.mean();
   const detail::VertexTets vt = detail::vertexTets(nvx, T);
-  const std::vector<int> cornerSlot = detail::cornerSlots(vt);  // (see spd_solver.h)
+  detail::CornerTerms cornerGrad(vt);  // per corner: the energy's gradient with respect to its vertex
   // Per-vertex mean weight of the incident tets (cones get their vertices').
   Eigen::VectorXd starWeight = Eigen::VectorXd::Zero(nvx);
   for (Eigen::Index v = 0; v < nv; ++v) {
@@ -425,10 +425,6 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     if (freeVerts.empty() || freeVerts.size() == previousFree) break;  // nothing new to move
     previousFree = freeVerts.size();
 
-    // Per corner of vt (4 #tets entries; those of the active tets are set
-    // by every gradient evaluation): the energy's gradient with respect to
-    // that corner's vertex.
-    std::vector<Eigen::Vector3d> cornerGrad(vt.corner.size());
     std::vector<double> det(active.size());
     double e0 = 1e-3;
     double eps = 1;
@@ -472,8 +468,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               sum += weight[t] * detail::untangleEnergy(J, eps, options.theta, g ? &dJ : nullptr);
               if (g) {
                 const Eigen::Matrix3d wdJ = weight[t] * dJ;
-                const Eigen::Matrix<double, 3, 4> tetGrad = wdJ * G;  // column k: gradient with respect to vertex k
-                for (int k = 0; k < 4; ++k) cornerGrad[static_cast<size_t>(cornerSlot[4 * static_cast<size_t>(t) + k])] = tetGrad.col(k);
+                cornerGrad.set(t, wdJ * G);  // column k: gradient with respect to vertex k
               }
             }
             return sum;
@@ -484,8 +479,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
           for (size_t k = r.begin(); k != r.end(); ++k) {
             const int v = freeVerts[k];
             Eigen::Vector3d s = Eigen::Vector3d::Zero();
-            for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e)
-              s += cornerGrad[static_cast<size_t>(e)];
+            cornerGrad.addTo(v, s);  // (every tet of a free vertex is active)
             const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
             if (slide[v] == kSphere) {  // chain rule through y ↦ y/|y|
               s = detail::sphereGradient(y, s);
