@@ -414,7 +414,7 @@ Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure)
 }
 
 // The ball map stretched onto the cube: x ↦ ½ + ½ x |x|₂/|x|_∞ (see
-// morphStart); boundary vertices get their largest coordinate set exactly.
+// cubeStart); boundary vertices get their largest coordinate set exactly.
 Eigen::MatrixX3d stretchOntoCube(const Eigen::MatrixX3d& ball, const std::vector<char>& onBoundary) {
   Eigen::MatrixX3d U(ball.rows(), 3);
   for (Eigen::Index v = 0; v < ball.rows(); ++v) {
@@ -431,8 +431,9 @@ Eigen::MatrixX3d stretchOntoCube(const Eigen::MatrixX3d& ball, const std::vector
   return U;
 }
 
-// The barrier morph's start: a bijective map onto Ω from the ball map, or an
-// empty matrix when untangling cannot make one. The few tets the ball map's
+// The barrier morph's start (ballStart, cubeStart below): a bijective map
+// onto Ω from the ball map, or an empty matrix when untangling cannot make
+// one. The few tets the ball map's
 // untangling may have left inverted (spool.off: 1) are untangled again, with
 // projected Newton (here it repairs what L-BFGS left) and the sphere
 // sliding; that is the start on the ball. On the cube, the ball map stretched
@@ -445,10 +446,11 @@ Eigen::MatrixX3d stretchOntoCube(const Eigen::MatrixX3d& ball, const std::vector
 // on the cube, across its edges, against one of two reference shapes
 // (MorphStartShapes). Returns an empty matrix when that fails.
 //
-// The untangler's reference shapes on the cube: the input mesh's tets
-// (Input), as everywhere else in the pipeline, or the ball map's own tets, scaled to
-// the cube's size (BallMap), change little under the stretch away from its
-// folds, so their energy is where the folds are. Measured (2 cores):
+// The untangler's reference shapes on the cube are the input mesh's tets
+// (Input), as everywhere else in the pipeline, or the ball map's own tets
+// scaled to the cube's size (BallMap). The latter change little under the
+// stretch away from its folds, so their energy is where the folds are.
+// Measured (2 cores):
 //   models/bracket.step (249k tets; the ball map 1000-fold compressed in the
 //   pockets and the hole; the stretch folds 2.9k): Input stalls (min det
 //   -0.98 after 100 Newton iterations, 330 s); BallMap untangles in 44
@@ -464,21 +466,27 @@ enum class MorphStartShapes { BallMap, Input };
 constexpr double kBallShapesWork = 250;
 constexpr double kMorphCloseEnough = 1;  // target edges, rms
 
-Eigen::MatrixX3d morphStart(const TetMesh& mesh, const Eigen::MatrixX3d& ballU, const Eigen::MatrixX3i& boundaryFaces,
-                            ParamDomain domain, MorphStartShapes shapes, const UntangleOptions& base) {
-  const std::vector<bool> none(static_cast<size_t>(ballU.rows()), false);
+// The start on the ball (the ball map, its leftover inversions repaired),
+// or an empty matrix.
+Eigen::MatrixX3d ballStart(const TetMesh& mesh, const Eigen::MatrixX3d& ballU, const Eigen::MatrixX3i& boundaryFaces,
+                           const UntangleOptions& base) {
+  if (countNonPositiveTets(ballU, mesh.T) == 0) return ballU;
   UntangleOptions o = base;
   o.method = UntangleMethod::Newton;
-  Eigen::MatrixX3d ball = ballU;
-  if (countNonPositiveTets(ball, mesh.T) > 0) {
-    o.sphereFaces = boundaryFaces;
-    UntangleResult u = untangle(mesh.V, mesh.T, ball, none, o);
-    if (u.stopped) throw Status::failure("stopped during the morph's start");
-    if (u.invertedAfter > 0 || u.flippedBoundaryTriangles > 0) return {};
-    ball = std::move(u.U);
-    o.sphereFaces.resize(0, 3);
-  }
-  if (domain == ParamDomain::Ball) return ball;
+  o.sphereFaces = boundaryFaces;
+  const UntangleResult u =
+      untangle(mesh.V, mesh.T, ballU, std::vector<bool>(static_cast<size_t>(ballU.rows()), false), o);
+  if (u.stopped) throw Status::failure("stopped during the morph's start");
+  if (u.invertedAfter > 0 || u.flippedBoundaryTriangles > 0) return {};
+  return u.U;
+}
+
+// The start on the cube, from ballStart's result.
+Eigen::MatrixX3d cubeStart(const TetMesh& mesh, const Eigen::MatrixX3d& ball, const Eigen::MatrixX3i& boundaryFaces,
+                           MorphStartShapes shapes, const UntangleOptions& base) {
+  const std::vector<bool> none(static_cast<size_t>(ball.rows()), false);
+  UntangleOptions o = base;
+  o.method = UntangleMethod::Newton;
   std::vector<char> onBoundary(static_cast<size_t>(ball.rows()), 0);
   for (Eigen::Index f = 0; f < boundaryFaces.rows(); ++f)
     for (int k = 0; k < 3; ++k) onBoundary[static_cast<size_t>(boundaryFaces(f, k))] = 1;
@@ -731,11 +739,13 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         (options.domain == ParamDomain::Cube ? morph.cubeFaces : morph.sphereFaces) = r.boundaryFaces;
         morph.progress = [&](double, const std::string& m) { return !options.progress || options.progress(-1, m); };
         std::optional<BarrierMorphResult> best;
+        const Eigen::MatrixX3d ball = ballStart(mesh, r.ballU, r.boundaryFaces, startOptions);
         Eigen::MatrixX3d tried;  // the start morphed last (the stretch may fold nothing: both starts the same)
         for (const MorphStartShapes shapes : {MorphStartShapes::BallMap, MorphStartShapes::Input}) {
-          if (best && best->distance <= kMorphCloseEnough) break;
+          if (ball.rows() != nv || (best && best->distance <= kMorphCloseEnough)) break;
           if (options.domain == ParamDomain::Ball && shapes == MorphStartShapes::Input) break;  // (one start on the ball)
-          Eigen::MatrixX3d start = morphStart(mesh, r.ballU, r.boundaryFaces, options.domain, shapes, startOptions);
+          Eigen::MatrixX3d start =
+              options.domain == ParamDomain::Ball ? ball : cubeStart(mesh, ball, r.boundaryFaces, shapes, startOptions);
           if (start.rows() != nv || (tried.rows() == nv && start == tried)) continue;
           tried = start;
           BarrierMorphResult morphed =

@@ -152,7 +152,12 @@ struct ParamOptions {
   /// again after the transport learned to carry ψ in two doubles
   /// (optimal_transport.h): p1/p50/p99 0.24/1.07/236, 3448 tets inverted
   /// by the composition, fit RMS 0.0060, Hausdorff 0.028; with
-  /// --min-dihedral 15 the morph gives p1/p50/p99 0.34/1.06/59.)
+  /// --min-dihedral 15 the morph gives p1/p50/p99 0.34/1.06/59.) On the
+  /// cube the stretch's folds are untangled first against the ball map's
+  /// own tet shapes, then against the input's (parameterize.cpp,
+  /// MorphStartShapes): models/bracket.step (30k tets folded by the
+  /// composition, 10k left) is valid only through the first, p1/p50/p99
+  /// 0.16/1.14/14.2.
   bool morphWhenTangled = true;
   /// With morphWhenTangled (and a sphere map with no flipped triangle, which
   /// the morph needs): the final untangling's phases together end after
