@@ -414,8 +414,12 @@ Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure)
 }
 
 // The ball map stretched onto the cube: x ↦ ½ + ½ x |x|₂/|x|_∞ (see
-// cubeStart); boundary vertices get their largest coordinate set exactly.
-Eigen::MatrixX3d stretchOntoCube(const Eigen::MatrixX3d& ball, const std::vector<char>& onBoundary) {
+// below); the vertices of boundaryFaces get their largest coordinate set
+// exactly.
+Eigen::MatrixX3d stretchOntoCube(const Eigen::MatrixX3d& ball, const Eigen::MatrixX3i& boundaryFaces) {
+  std::vector<char> onBoundary(static_cast<size_t>(ball.rows()), 0);
+  for (Eigen::Index f = 0; f < boundaryFaces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) onBoundary[static_cast<size_t>(boundaryFaces(f, k))] = 1;
   Eigen::MatrixX3d U(ball.rows(), 3);
   for (Eigen::Index v = 0; v < ball.rows(); ++v) {
     const Eigen::Vector3d x = ball.row(v);
@@ -431,7 +435,7 @@ Eigen::MatrixX3d stretchOntoCube(const Eigen::MatrixX3d& ball, const std::vector
   return U;
 }
 
-// The barrier morph's start (ballStart, cubeStart below): a bijective map
+// The barrier morph's start (ballStart, untangleStretch below): a bijective map
 // onto Ω from the ball map, or an empty matrix when untangling cannot make
 // one. The few tets the ball map's
 // untangling may have left inverted (spool.off: 1) are untangled again, with
@@ -444,7 +448,7 @@ Eigen::MatrixX3d stretchOntoCube(const Eigen::MatrixX3d& ball, const std::vector
 // keep their sign; tets that the stretch folds where it bends (the planes
 // |x_i| = |x_j|) are untangled by projected Newton with the boundary sliding
 // on the cube, across its edges, against one of two reference shapes
-// (MorphStartShapes). Returns an empty matrix when that fails.
+// (MorphStartShapes).
 //
 // The untangler's reference shapes on the cube are the input mesh's tets
 // (Input), as everywhere else in the pipeline, or the ball map's own tets
@@ -481,22 +485,19 @@ Eigen::MatrixX3d ballStart(const TetMesh& mesh, const Eigen::MatrixX3d& ballU, c
   return u.U;
 }
 
-// The start on the cube, from ballStart's result.
-Eigen::MatrixX3d cubeStart(const TetMesh& mesh, const Eigen::MatrixX3d& ball, const Eigen::MatrixX3i& boundaryFaces,
-                           MorphStartShapes shapes, const UntangleOptions& base) {
-  const std::vector<bool> none(static_cast<size_t>(ball.rows()), false);
+// The start on the cube: `stretched` (stretchOntoCube of ballStart's
+// `ball`) untangled against `shapes`, or an empty matrix.
+Eigen::MatrixX3d untangleStretch(const TetMesh& mesh, const Eigen::MatrixX3d& ball, const Eigen::MatrixX3d& stretched,
+                                 const Eigen::MatrixX3i& boundaryFaces, MorphStartShapes shapes,
+                                 const UntangleOptions& base) {
   UntangleOptions o = base;
   o.method = UntangleMethod::Newton;
-  std::vector<char> onBoundary(static_cast<size_t>(ball.rows()), 0);
-  for (Eigen::Index f = 0; f < boundaryFaces.rows(); ++f)
-    for (int k = 0; k < 3; ++k) onBoundary[static_cast<size_t>(boundaryFaces(f, k))] = 1;
-  Eigen::MatrixX3d U = stretchOntoCube(ball, onBoundary);
-  if (countNonPositiveTets(U, mesh.T) == 0) return U;
   o.cubeFaces = boundaryFaces;
   o.cubeAcrossEdges = true;
   if (shapes == MorphStartShapes::BallMap) o.maxTetEvaluations = kBallShapesWork * static_cast<double>(mesh.numTets());
   const UntangleResult u =
-      untangle(shapes == MorphStartShapes::BallMap ? Eigen::MatrixX3d(0.5 * ball) : mesh.V, mesh.T, U, none, o);
+      untangle(shapes == MorphStartShapes::BallMap ? Eigen::MatrixX3d(0.5 * ball) : mesh.V, mesh.T, stretched,
+               std::vector<bool>(static_cast<size_t>(ball.rows()), false), o);
   if (u.stopped) throw Status::failure("stopped during the morph's start");
   if (u.invertedAfter > 0 || u.flippedBoundaryTriangles > 0) return {};
   return u.U;
@@ -738,20 +739,27 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         morph.targetVolumes = r.targetVolume;
         (options.domain == ParamDomain::Cube ? morph.cubeFaces : morph.sphereFaces) = r.boundaryFaces;
         morph.progress = [&](double, const std::string& m) { return !options.progress || options.progress(-1, m); };
-        std::optional<BarrierMorphResult> best;
-        const Eigen::MatrixX3d ball = ballStart(mesh, r.ballU, r.boundaryFaces, startOptions);
-        Eigen::MatrixX3d tried;  // the start morphed last (the stretch may fold nothing: both starts the same)
-        for (const MorphStartShapes shapes : {MorphStartShapes::BallMap, MorphStartShapes::Input}) {
-          if (ball.rows() != nv || (best && best->distance <= kMorphCloseEnough)) break;
-          if (options.domain == ParamDomain::Ball && shapes == MorphStartShapes::Input) break;  // (one start on the ball)
-          Eigen::MatrixX3d start =
-              options.domain == ParamDomain::Ball ? ball : cubeStart(mesh, ball, r.boundaryFaces, shapes, startOptions);
-          if (start.rows() != nv || (tried.rows() == nv && start == tried)) continue;
-          tried = start;
+        std::optional<BarrierMorphResult> best;  // of the morphs run, the one that ends closest to its target
+        auto morphFrom = [&](const Eigen::MatrixX3d& start) {
           BarrierMorphResult morphed =
               morphTowards(mesh.V, mesh.T, start, untangled.U, std::vector<bool>(static_cast<size_t>(nv), false), morph);
           if (morphed.stopped) throw Status::failure("stopped during the morph");
           if (!best || morphed.distance < best->distance) best = std::move(morphed);
+        };
+        const Eigen::MatrixX3d ball = ballStart(mesh, r.ballU, r.boundaryFaces, startOptions);
+        if (ball.rows() == nv && options.domain == ParamDomain::Ball) {
+          morphFrom(ball);
+        } else if (ball.rows() == nv) {
+          const Eigen::MatrixX3d stretched = stretchOntoCube(ball, r.boundaryFaces);
+          if (countNonPositiveTets(stretched, mesh.T) == 0) {
+            morphFrom(stretched);
+          } else {
+            for (const MorphStartShapes shapes : {MorphStartShapes::BallMap, MorphStartShapes::Input}) {
+              if (best && best->distance <= kMorphCloseEnough) break;
+              const Eigen::MatrixX3d start = untangleStretch(mesh, ball, stretched, r.boundaryFaces, shapes, startOptions);
+              if (start.rows() == nv) morphFrom(start);
+            }
+          }
         }
         if (best) {
           r.param.morphed = true;

@@ -12,7 +12,8 @@
 // validity stage's sum factorisation, 4 s after); hand 2572 -> 0, 0.0060,
 // about 100 s (its transport needs ψ in two doubles at the end,
 // optimal_transport.h, and its map comes from the barrier morph: param
-// 87 s). The spline's volume must
+// 133 s, 41 s of it on a first morph that ends too far from its target,
+// parameterize.cpp). The spline's volume must
 // be the mesh's within 2% (design.md, Export): part's coarse boundary leaves
 // wedges of the cube uncovered along its edges (a third of the faces' area),
 // which the fit fills from the faces' samples (face_coverage.h).
