@@ -64,6 +64,20 @@
 //   later solve takes 400–1200 CG iterations; loosening it 100-fold after
 //   each step >= 1/2 cut the solves to 26.9 s with the same steps, not
 //   landed (it changes every mesh's transport in the last bits).
+// Measured 2026-12-04 (trial diagrams repaired by flips from the current
+// one, CG started from (1 − t) × the last direction), machine otherwise idle:
+//   181k: 13.3, 11.2, 10.8 s (median 11.2 s; target 15), 10 iterations,
+//   16 diagrams: triangulation 5.1–6.2 s (a late Newton step: 0–4000 flips,
+//   0.15 s with the neighbour lists, against 0.7–1.0 s for CGAL's
+//   insertion; the first iteration's trials from the start need 0.8M flips
+//   and fall back to CGAL), clipping 1.6–2.4 s, solve 2.0–2.5 s, start 1.5 s;
+//   392 MiB (the diagrams now keep their tets). 100k: 5.8 s; 10k: 0.48 s.
+//   bunny00's cube problem (--points): 58.6 and 55.6 s (was 68.5 s), 23
+//   iterations, 40 diagrams: triangulation 16–18 s (25.4), clipping 11.3–11.7
+//   s, linear solve 26.0–26.6 s (29.9; CG's warm start), 307 MiB. Target 30 s:
+//   not met; the solve (400–1000 Jacobi-CG iterations at 1e-9 after the
+//   damped start) and the 17 extra diagrams of failed trial steps are what
+//   is left.
 #include <sys/resource.h>
 
 #include <chrono>
@@ -183,13 +197,13 @@ int main(int argc, char** argv) {
       std::printf("  %s\n", r.status.message.c_str());
       status = 1;
     }
-    std::printf("  %4s %9s %5s %6s %8s %8s %8s %8s %10s\n", "it", "step", "evals", "cg", "triang", "clip", "assemble",
-                "solve", "rel.err");
+    std::printf("  %4s %9s %5s %8s %8s %6s %8s %8s %8s %8s %10s\n", "it", "step", "evals", "repaired", "flips", "cg",
+                "triang", "clip", "assemble", "solve", "rel.err");
     double sums[4] = {0, 0, 0, 0};
     for (std::size_t k = 0; k < r.iterationStats.size(); ++k) {
       const OtIterationStats& s = r.iterationStats[k];
-      std::printf("  %4zu %9.3g %5d %6d %8.3f %8.3f %8.3f %8.3f %10.3g\n", k + 1, s.stepSize, s.evaluations,
-                  s.linearIterations, s.triangulationSeconds, s.clippingSeconds, s.assemblySeconds,
+      std::printf("  %4zu %9.3g %5d %8d %8ld %6d %8.3f %8.3f %8.3f %8.3f %10.3g\n", k + 1, s.stepSize, s.evaluations,
+                  s.repairedDiagrams, s.flips, s.linearIterations, s.triangulationSeconds, s.clippingSeconds, s.assemblySeconds,
                   s.linearSolveSeconds, s.maxRelativeMassError);
       sums[0] += s.triangulationSeconds;
       sums[1] += s.clippingSeconds;

@@ -1,7 +1,6 @@
 #include "param_stage.h"
 
 #include <cmath>
-#include <cstdlib>
 #include <sstream>
 
 #include "tet2spline/param/error.h"
@@ -28,6 +27,9 @@ void ParamStageOptions::addTo(CLI::App* cmd) {
   cmd->add_option("--boundary-smoothing", boundarySmoothing,
                   "sweeps of tangential smoothing of the boundary after the transport (0 = none)")
       ->check(CLI::Range(0, 100))->capture_default_str();
+  cmd->add_option("--interior-smoothing", interiorSmoothing,
+                  "sweeps of smoothing of the interior after the boundary's (0 = none)")
+      ->check(CLI::Range(0, 100))->capture_default_str();
 }
 
 ParamOptions ParamStageOptions::toParamOptions() const {
@@ -35,6 +37,7 @@ ParamOptions ParamStageOptions::toParamOptions() const {
   o.domain = domain == "ball" ? ParamDomain::Ball : ParamDomain::Cube;
   o.transport = !noTransport;
   o.boundarySmoothing.sweeps = boundarySmoothing;
+  o.boundarySmoothing.interiorSweeps = interiorSmoothing;
   for (const std::string& d : densities) {
     const size_t eq = d.find('=');
     std::istringstream rs(d.substr(0, eq == std::string::npos ? 0 : eq)), ws(eq == std::string::npos ? "" : d.substr(eq + 1));
@@ -101,6 +104,7 @@ void addParamReport(json& j, const ParamResult& r) {
   setPath(j, "param.morph", morph);
   if (r.ot.ran)
     setPath(j, "param.boundary_smoothing", json{{"moves", r.param.boundarySmoothingMoves},
+                                                {"interior_moves", r.param.interiorSmoothingMoves},
                                                 {"refused", r.param.boundarySmoothingRefused},
                                                 {"rms_move", r.param.boundarySmoothingRms}});
   setPath(j, "param.volume_ratio", json{{"p1", r.param.volumeRatioP1}, {"p50", r.param.volumeRatioP50},

@@ -18,6 +18,7 @@ struct ParamStageOptions {
   int maxIterations = 100;
   std::string untangler = "lbfgs";
   int boundarySmoothing = BoundarySmoothingOptions().sweeps;
+  int interiorSmoothing = BoundarySmoothingOptions().interiorSweeps;
 
   void addTo(CLI::App* cmd);
   /// Throws Error(Usage) for a malformed --density.

@@ -48,7 +48,7 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
 
   BoundarySmoothingResult result;
   result.U = U;
-  if (options.sweeps <= 0 || faces.rows() == 0) return result;
+  if ((options.sweeps <= 0 && options.interiorSweeps <= 0) || faces.rows() == 0) return result;
   Eigen::MatrixX3d& P = result.U;
   const bool cube = options.shape == BoundaryShape::UnitCube;
   const Eigen::Vector3d apex = cube ? Eigen::Vector3d(0.5, 0.5, 0.5) : Eigen::Vector3d::Zero();
@@ -186,6 +186,66 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
       } else {
         P.row(i) = old;
         ++result.refused;
+      }
+    }
+  }
+  // Interior sweeps: the same rule with the affine function of x in 3D
+  // fitted to the vertex's neighbours through its tets.
+  if (options.interiorSweeps > 0) {
+    std::vector<int> nb;
+    for (int sweep = 0; sweep < options.interiorSweeps; ++sweep) {
+      for (Eigen::Index iv = 0; iv < nv; ++iv) {
+        const int i = static_cast<int>(iv);
+        if (!facesOf[static_cast<size_t>(i)].empty()) continue;
+        const int k0 = tetsOf.offset[static_cast<size_t>(i)], k1 = tetsOf.offset[static_cast<size_t>(i) + 1];
+        if (k0 == k1) continue;
+        nb.clear();
+        for (int k = k0; k < k1; ++k) {
+          const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
+          for (int c = 0; c < 4; ++c)
+            if (T(t, c) != i) nb.push_back(T(t, c));
+        }
+        std::sort(nb.begin(), nb.end());
+        nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+        if (nb.size() < 4) continue;
+        Eigen::Matrix4d AtA = Eigen::Matrix4d::Zero();
+        Eigen::Matrix<double, 4, 3> AtR = Eigen::Matrix<double, 4, 3>::Zero();
+        double scale = 0;
+        for (int j : nb) scale = std::max(scale, (X.row(j) - X.row(i)).norm());
+        if (!(scale > 0)) continue;
+        for (int j : nb) {
+          const Eigen::Vector3d d = (X.row(j) - X.row(i)).transpose() / scale;
+          const Eigen::Vector4d a(1.0, d.x(), d.y(), d.z());
+          AtA += a * a.transpose();
+          AtR += a * P.row(j);
+        }
+        // The neighbours must spread in three directions.
+        const Eigen::Matrix3d S =
+            AtA.block<3, 3>(1, 1) - AtA.block<3, 1>(1, 0) * AtA.block<1, 3>(0, 1) / AtA(0, 0);
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(S, Eigen::EigenvaluesOnly);
+        if (!(eig.eigenvalues()(0) > 1e-3 * eig.eigenvalues()(2))) continue;
+        const Eigen::RowVector3d target = AtA.ldlt().solve(AtR).row(0);
+        if (!target.allFinite()) continue;
+        const Eigen::RowVector3d old = P.row(i);
+        before.clear();
+        misfitBefore = 0;
+        for (int k = k0; k < k1; ++k) {
+          const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
+          before.push_back(tetVolume6(P, T, t));
+          if (measured) misfitBefore += misfit(t, before.back());
+        }
+        double s = options.step;
+        bool taken = false;
+        for (int halving = 0; halving <= 4 && !taken; ++halving, s *= 0.5) {
+          P.row(i) = old + s * (target - old);
+          taken = acceptable(i);
+        }
+        if (taken) {
+          ++result.interiorMoves;
+        } else {
+          P.row(i) = old;
+          ++result.refused;
+        }
       }
     }
   }

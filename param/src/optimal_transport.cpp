@@ -77,7 +77,8 @@ SpMat groundedLaplacian(const Eigen::MatrixX3d& y, const PowerDiagram& pd, int g
 }
 
 // Jacobi-preconditioned conjugate gradients with TBB matrix-vector products
-// (L is symmetric, so its column-major storage is also its row-major one).
+// (L is symmetric, so its column-major storage is also its row-major one),
+// from the start x (#n) to ‖b − Lx‖ ≤ tolerance·‖b‖.
 int jacobiCg(const SpMat& L, const Eigen::VectorXd& b, Eigen::VectorXd& x, double tolerance, int maxIterations) {
   const int n = static_cast<int>(b.size());
   const int* outer = L.outerIndexPtr();
@@ -109,10 +110,15 @@ int jacobiCg(const SpMat& L, const Eigen::VectorXd& b, Eigen::VectorXd& x, doubl
         },
         std::plus<double>());
   };
-  x.setZero(n);
-  Eigen::VectorXd r = b, z(n), p(n), q(n);
+  Eigen::VectorXd r(n), z(n), p(n), q(n);
   const double bNorm = std::sqrt(dot(b, b));
-  if (bNorm == 0) return 0;
+  if (bNorm == 0) {
+    x.setZero(n);
+    return 0;
+  }
+  multiply(x, q);
+  r = b - q;
+  if (std::sqrt(dot(r, r)) <= tolerance * bNorm) return 0;
   z = invDiag.cwiseProduct(r);
   p = z;
   double rz = dot(r, z);
@@ -296,6 +302,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
   // norm, so the weighted test accepts the same Newton steps there.
   bool relativeMerit = false;
   auto merit = [&](const Eigen::VectorXd& grad) { return relativeMerit ? grad.cwiseQuotient(nu).norm() : grad.norm(); };
+  Eigen::VectorXd lastDirection;  // the last accepted step's direction (CG's start), empty when none
   while (error >= options.maxRelativeMassError) {
     if (iteration >= options.maxNewtonIterations) {
       std::ostringstream msg;
@@ -324,6 +331,13 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
         // Inexact Newton with a fixed relative residual: a looser, adaptive
         // forcing term (0.1·error) was tried and stalled the damped phase on
         // the benchmark (cells near ε0 pushed below it by the residual).
+        // CG starts from (1 − t) times the last direction, t the step taken
+        // along it: after that step the gradient is about (1 − t) times the
+        // last one and the Hessian nearly the same, so in a damped phase
+        // (t ≪ 1) the start is most of the answer. After a full step, or a
+        // switch of solver, it starts from 0.
+        if (lastDirection.size() == n) d = (1 - lastStep) * lastDirection;
+        else d.setZero(n);
         stats.linearIterations = jacobiCg(L, rhs, d, cgTolerance, options.cgMaxIterations);
         break;
       case OtLinearSolver::IncompleteCholeskyCG: {
@@ -377,9 +391,13 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
       } else {
         psiTrial = psiStart + t * d;  // (both tails stay zero)
       }
+      // The current diagram seeds the trial's: its regular triangulation
+      // is repaired by flips rather than built again.
       PowerDiagram trial = computePowerDiagram(y, psiTrial, domain, CellMeasure::DualWhereInside, true,
-                                               withTails ? &psiTrialTail : nullptr);
+                                               withTails ? &psiTrialTail : nullptr, &pd);
       ++stats.evaluations;
+      stats.repairedDiagrams += trial.repaired;
+      stats.flips += trial.flips;
       stats.triangulationSeconds += trial.triangulationSeconds;
       stats.clippingSeconds += trial.clippingSeconds;
       if (trial.volumes.minCoeff() < eps0) return false;
@@ -411,6 +429,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     // A failed search switches to a stronger method and tries again from
     // the same point, with the step search restarted.
     auto switched = [&] {
+      lastDirection.resize(0);
       result.iterationStats.push_back(stats);
       result.stepSizes.push_back(0);
       ++result.solverSwitches;
@@ -449,6 +468,8 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     }
     error = relativeError(g);
     lastStep = step;
+    if (solver == OtLinearSolver::ConjugateGradient && step < 1) lastDirection = d;
+    else lastDirection.resize(0);
     growth = passing == e0 ? 4 : 2;
     if (solver == OtLinearSolver::ConjugateGradient && step < 1.0 / 16 && cgTolerance > 1e-9) {
       cgTolerance = std::max(1e-9, 0.01 * cgTolerance);

@@ -813,7 +813,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
 
       // 7. tangential smoothing of the boundary (boundary_smoothing.h)
       t0 = Clock::now();
-      if (options.boundarySmoothing.sweeps > 0) {
+      if (options.boundarySmoothing.sweeps > 0 || options.boundarySmoothing.interiorSweeps > 0) {
         report(0.99, "boundary smoothing");
         BoundarySmoothingOptions smoothing = options.boundarySmoothing;
         smoothing.shape = options.domain == ParamDomain::Cube ? BoundaryShape::UnitCube : BoundaryShape::UnitSphere;
@@ -821,6 +821,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         BoundarySmoothingResult smoothed = smoothBoundary(mesh.V, mesh.T, r.U, r.boundaryFaces, smoothing);
         r.U = std::move(smoothed.U);
         r.param.boundarySmoothingMoves = smoothed.moves;
+        r.param.interiorSmoothingMoves = smoothed.interiorMoves;
         r.param.boundarySmoothingRefused = smoothed.refused;
         r.param.boundarySmoothingRms = smoothed.rmsMove;
       }

@@ -29,6 +29,7 @@
 #include <sstream>
 #include <utility>
 
+#include "regular_repair.h"
 #include "tet2spline/param/error.h"
 
 namespace tet2spline {
@@ -532,7 +533,8 @@ namespace {
 // The diagram of sites in a spatially coherent order (see computePowerDiagram):
 // neighbouring sites, their tets and their rows are close in memory.
 PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
-                                  const Eigen::VectorXd* tails, const Domain& domain, CellMeasure measure) {
+                                  const Eigen::VectorXd* tails, const Domain& domain, CellMeasure measure,
+                                  const PowerDiagram* seed) {
   const WeightDifference weightDifference{weights, tails};
   const int n = static_cast<int>(points.rows());
   PowerDiagram pd;
@@ -540,13 +542,27 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
   pd.centroids = points;
   pd.neighbourStart.assign(n + 1, 0);
 
-  // 1. Regular triangulation, sequential insertion after CGAL's spatial sort,
-  // copied into flat arrays: finite tets (positively oriented), their
-  // neighbours (-1 across a hull facet), and per site the sorted neighbours.
+  // 1. Regular triangulation: the seed's repaired by flips, or CGAL's by
+  // sequential insertion after its spatial sort, copied into flat arrays:
+  // finite tets (positively oriented), their neighbours (-1 across a hull
+  // facet), and per site the sorted neighbours.
   auto t0 = Clock::now();
   std::vector<int> present(n, 0);
-  std::vector<std::array<int, 4>> tetVertex, tetNeighbour;
-  {
+  TetArrays tets;
+  if (seed && seed->hiddenSites == 0 && !seed->tetVertex.empty() &&
+      static_cast<int>(seed->neighbourStart.size()) == n + 1) {
+    tets.vertex = seed->tetVertex;
+    tets.neighbour = seed->tetNeighbour;
+    // Flips cost about 1 µs each and CGAL's insertion about 4 µs per site
+    // (181k sites, 1.2M tets): a repair needing more than a quarter as many
+    // flips as there are tets is given up (the transport's first trial
+    // steps from a poor start need millions).
+    pd.repaired =
+        repairRegularTriangulation(points, weights, tets, static_cast<long>(tets.vertex.size() / 4), &pd.flips);
+    if (pd.repaired) std::fill(present.begin(), present.end(), 1);
+    else tets = TetArrays();
+  }
+  if (!pd.repaired) {
     std::vector<std::pair<RegularTriangulation::Weighted_point, int>> input;
     input.reserve(n);
     for (int i = 0; i < n; ++i)
@@ -564,13 +580,13 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
     if (rt.dimension() == 3) {
       int nt = 0;
       for (auto c = rt.all_cells_begin(); c != rt.all_cells_end(); ++c) c->info() = rt.is_infinite(c) ? -1 : nt++;
-      tetVertex.resize(nt);
-      tetNeighbour.resize(nt);
+      tets.vertex.resize(nt);
+      tets.neighbour.resize(nt);
       for (auto c = rt.finite_cells_begin(); c != rt.finite_cells_end(); ++c) {
         const int t = c->info();
         for (int q = 0; q < 4; ++q) {
-          tetVertex[t][q] = c->vertex(q)->info();
-          tetNeighbour[t][q] = c->neighbor(q)->info();
+          tets.vertex[t][q] = c->vertex(q)->info();
+          tets.neighbour[t][q] = c->neighbor(q)->info();
         }
       }
     } else {
@@ -592,6 +608,9 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
       });
     }
   }
+  canonicalizeTets(tets, n);
+  const std::vector<std::array<int, 4>>& tetVertex = tets.vertex;
+  const std::vector<std::array<int, 4>>& tetNeighbour = tets.neighbour;
   // Tets of each site, as t·4 + (the site's slot in t).
   const int nt = static_cast<int>(tetVertex.size());
   std::vector<int> incidentStart(n + 1, 0), incident(4 * static_cast<size_t>(nt));
@@ -788,6 +807,8 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
   });
   pd.clippingSeconds = secondsSince(t0);
   for (int i = 0; i < n; ++i) pd.clippedCells += present[i] && !dual[i];
+  pd.tetVertex = std::move(tets.vertex);
+  pd.tetNeighbour = std::move(tets.neighbour);
   return pd;
 }
 
@@ -808,7 +829,7 @@ std::vector<int> spatialOrder(const Eigen::MatrixX3d& points) {
 
 PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
                                  const Domain& domain, CellMeasure measure, bool presorted,
-                                 const Eigen::VectorXd* weightTails) {
+                                 const Eigen::VectorXd* weightTails, const PowerDiagram* seed) {
   const int n = static_cast<int>(points.rows());
   if (weights.size() != points.rows()) {
     std::ostringstream msg;
@@ -831,7 +852,11 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     }
 
 
-  if (presorted) return diagramOfSortedSites(points, weights, weightTails, domain, measure);
+  if (seed && static_cast<int>(seed->neighbourStart.size()) != n + 1)
+    throw Error(ErrorKind::Usage, "computePowerDiagram: the seed diagram has " +
+                                      std::to_string(static_cast<long>(seed->neighbourStart.size()) - 1) +
+                                      " sites, not " + std::to_string(n));
+  if (presorted) return diagramOfSortedSites(points, weights, weightTails, domain, measure, seed);
 
   // Work in Hilbert order: with the sites in input order (random, for the
   // OT benchmark) every neighbour lookup was a cache miss, and the dual
@@ -845,9 +870,21 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     sortedWeights[r] = weights[order[r]];
     if (weightTails) sortedTails[r] = (*weightTails)[order[r]];
   }
+  // The seed's tets renamed to the sorted order.
+  PowerDiagram sortedSeed;
+  if (seed) {
+    std::vector<int> rank(n);
+    for (int r = 0; r < n; ++r) rank[order[r]] = r;
+    sortedSeed.neighbourStart.assign(n + 1, 0);
+    sortedSeed.hiddenSites = seed->hiddenSites;
+    sortedSeed.tetVertex = seed->tetVertex;
+    sortedSeed.tetNeighbour = seed->tetNeighbour;
+    for (auto& tv : sortedSeed.tetVertex)
+      for (int& v : tv) v = rank[v];
+  }
   const double sortSeconds = secondsSince(t0);
-  const PowerDiagram sorted =
-      diagramOfSortedSites(sortedPoints, sortedWeights, weightTails ? &sortedTails : nullptr, domain, measure);
+  PowerDiagram sorted = diagramOfSortedSites(sortedPoints, sortedWeights, weightTails ? &sortedTails : nullptr,
+                                             domain, measure, seed ? &sortedSeed : nullptr);
 
   // Back to the input order: rows moved, neighbour ids renamed, each row
   // sorted again by id with its areas.
@@ -881,6 +918,12 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
   });
   pd.hiddenSites = sorted.hiddenSites;
   pd.clippedCells = sorted.clippedCells;
+  pd.repaired = sorted.repaired;
+  pd.flips = sorted.flips;
+  pd.tetVertex = std::move(sorted.tetVertex);
+  pd.tetNeighbour = std::move(sorted.tetNeighbour);
+  for (auto& tv : pd.tetVertex)
+    for (int& v : tv) v = order[v];
   pd.triangulationSeconds = sortSeconds + sorted.triangulationSeconds + secondsSince(t0);
   pd.clippingSeconds = sorted.clippingSeconds;
   return pd;

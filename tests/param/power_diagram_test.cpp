@@ -271,3 +271,172 @@ TEST(PowerDiagram, BadInputThrows) {
   }
   EXPECT_THROW(Domain::unitBall(9), Error);
 }
+
+// ---------------------------------------------------------------------------
+// Seeded diagrams: the seed's regular triangulation repaired by flips.
+
+namespace {
+
+// The seeded and the unseeded diagram are the same: same tets in the same
+// (canonical) order, bitwise the same measurements.
+void expectSameDiagram(const PowerDiagram& a, const PowerDiagram& b) {
+  EXPECT_EQ(a.tetVertex, b.tetVertex);
+  EXPECT_EQ(a.tetNeighbour, b.tetNeighbour);
+  EXPECT_EQ(a.hiddenSites, b.hiddenSites);
+  EXPECT_EQ(a.neighbour, b.neighbour);
+  EXPECT_EQ(a.facetArea, b.facetArea);
+  EXPECT_TRUE(a.volumes == b.volumes);
+  EXPECT_TRUE(a.centroids == b.centroids);
+}
+
+// Every interior facet of the tets is locally regular: the opposite vertex
+// has positive power distance to the tet's orthogonal sphere (checked in
+// long double, with a margin the tests' weights keep clear of).
+int nonRegularFacets(const PowerDiagram& pd, const Eigen::MatrixX3d& y, const Eigen::VectorXd& psi) {
+  int bad = 0;
+  for (std::size_t t = 0; t < pd.tetVertex.size(); ++t)
+    for (int q = 0; q < 4; ++q) {
+      const int u = pd.tetNeighbour[t][q];
+      if (u < 0) continue;
+      int b = -1;
+      for (int s = 0; s < 4; ++s)
+        if (pd.tetNeighbour[u][s] == static_cast<int>(t)) b = pd.tetVertex[u][s];
+      // Orthogonal centre z of the tet: 2 (y_k − y_0)·z = |y_k|² − ψ_k − |y_0|² + ψ_0.
+      const auto& v = pd.tetVertex[t];
+      Eigen::Matrix3d A;
+      Eigen::Vector3d r;
+      for (int k = 1; k < 4; ++k) {
+        A.row(k - 1) = 2 * (y.row(v[k]) - y.row(v[0]));
+        r[k - 1] = y.row(v[k]).squaredNorm() - psi[v[k]] - y.row(v[0]).squaredNorm() + psi[v[0]];
+      }
+      const Eigen::Vector3d z = A.partialPivLu().solve(r);
+      const double power0 = (z - y.row(v[0]).transpose()).squaredNorm() - psi[v[0]];
+      const double powerB = (z - y.row(b).transpose()).squaredNorm() - psi[b];
+      bad += powerB < power0 - 1e-9;
+    }
+  return bad;
+}
+
+Eigen::VectorXd randomWeights(int n, unsigned seed, double scale) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, scale);
+  Eigen::VectorXd psi(n);
+  for (auto& w : psi) w = u(rng);
+  return psi;
+}
+
+}  // namespace
+
+TEST(PowerDiagram, CgalsTriangulationIsLocallyRegularSoItsOwnSeedNeedsNoFlip) {
+  const Eigen::MatrixX3d y = randomPointsInBall(3000, 21, 0.45).rowwise() + Eigen::RowVector3d(0.5, 0.5, 0.5);
+  const Eigen::VectorXd psi = randomWeights(3000, 22, 3e-5);
+  const PowerDiagram pd = computePowerDiagram(y, psi, Domain::unitCube());
+  ASSERT_EQ(pd.hiddenSites, 0);
+  EXPECT_FALSE(pd.repaired);
+  EXPECT_EQ(nonRegularFacets(pd, y, psi), 0);
+  const PowerDiagram again = computePowerDiagram(y, psi, Domain::unitCube(), CellMeasure::DualWhereInside, false,
+                                                 nullptr, &pd);
+  EXPECT_TRUE(again.repaired);
+  EXPECT_EQ(again.flips, 0);
+  expectSameDiagram(again, pd);
+}
+
+TEST(PowerDiagram, RepairedTriangulationIsTheRegularOneCgalBuilds) {
+  // Sites of an OT problem (a ball in the cube), weights changed by steps
+  // from a few flips to thousands; presorted and in input order.
+  const int n = 4000;
+  Eigen::MatrixX3d y = randomPointsInBall(n, 23, 0.45).rowwise() + Eigen::RowVector3d(0.5, 0.5, 0.5);
+  const Eigen::VectorXd psi0 = randomWeights(n, 24, 2e-4);
+  for (bool presorted : {false, true}) {
+    if (presorted) {
+      const std::vector<int> order = spatialOrder(y);
+      Eigen::MatrixX3d sorted(n, 3);
+      for (int r = 0; r < n; ++r) sorted.row(r) = y.row(order[r]);
+      y = sorted;
+    }
+    const PowerDiagram seed = computePowerDiagram(y, psi0, Domain::unitCube(), CellMeasure::DualWhereInside, presorted);
+    long lastFlips = -1;
+    for (double scale : {1e-7, 1e-6, 1e-5, 1e-4}) {
+      const Eigen::VectorXd psi = psi0 + randomWeights(n, 25, scale) - Eigen::VectorXd::Constant(n, scale / 2);
+      const PowerDiagram fresh = computePowerDiagram(y, psi, Domain::unitCube(), CellMeasure::DualWhereInside, presorted);
+      const PowerDiagram repaired =
+          computePowerDiagram(y, psi, Domain::unitCube(), CellMeasure::DualWhereInside, presorted, nullptr, &seed);
+      ASSERT_EQ(fresh.hiddenSites, 0) << scale;
+      EXPECT_TRUE(repaired.repaired) << scale;
+      EXPECT_GT(repaired.flips, lastFlips) << scale;
+      lastFlips = repaired.flips;
+      expectSameDiagram(repaired, fresh);
+      EXPECT_EQ(nonRegularFacets(repaired, y, psi), 0) << scale;
+      expectTiling(repaired, Domain::unitCube(), 1e-12);
+    }
+    EXPECT_GT(lastFlips, 100);
+  }
+}
+
+TEST(PowerDiagram, RepairOnTheBallDomainWithTails) {
+  const int n = 3000;
+  const Eigen::MatrixX3d y = randomPointsInBall(n, 26, 0.9);
+  const Eigen::VectorXd psi0 = randomWeights(n, 27, 3e-5);
+  const Eigen::VectorXd psi = psi0 + randomWeights(n, 28, 3e-5);
+  const Eigen::VectorXd tails = randomWeights(n, 29, 1e-19);
+  const Domain ball = Domain::unitBall(4);
+  const PowerDiagram seed = computePowerDiagram(y, psi0, ball);
+  ASSERT_EQ(seed.hiddenSites, 0);
+  const PowerDiagram fresh = computePowerDiagram(y, psi, ball, CellMeasure::DualWhereInside, false, &tails);
+  const PowerDiagram repaired = computePowerDiagram(y, psi, ball, CellMeasure::DualWhereInside, false, &tails, &seed);
+  EXPECT_TRUE(repaired.repaired);
+  EXPECT_GT(repaired.flips, 0);
+  expectSameDiagram(repaired, fresh);
+  expectTiling(repaired, ball, 1e-12);
+}
+
+TEST(PowerDiagram, HiddenSitesAndTheirSeedsFallBackToInsertion) {
+  Eigen::MatrixX3d y = randomPoints(300, 30);
+  y.row(7) = 0.5 * (y.row(3) + y.row(4));
+  Eigen::VectorXd psi = Eigen::VectorXd::Zero(300);
+  const PowerDiagram visible = computePowerDiagram(y, psi, Domain::unitCube());
+  ASSERT_EQ(visible.hiddenSites, 0);
+  // The new weights hide site 7: no flip removes a vertex.
+  psi[7] = -10;
+  const PowerDiagram hidden = computePowerDiagram(y, psi, Domain::unitCube());
+  const PowerDiagram fromVisible =
+      computePowerDiagram(y, psi, Domain::unitCube(), CellMeasure::DualWhereInside, false, nullptr, &visible);
+  EXPECT_FALSE(fromVisible.repaired);
+  EXPECT_GE(fromVisible.hiddenSites, 1);
+  expectSameDiagram(fromVisible, hidden);
+  // A seed that hides a site cannot give it back.
+  psi[7] = 0;
+  const PowerDiagram fromHidden =
+      computePowerDiagram(y, psi, Domain::unitCube(), CellMeasure::DualWhereInside, false, nullptr, &hidden);
+  EXPECT_FALSE(fromHidden.repaired);
+  expectSameDiagram(fromHidden, visible);
+}
+
+TEST(PowerDiagram, SitesOnTheHullsFacesAreNotRepaired) {
+  // A 4×4×4 grid: sites inside the hull's square faces, whose own
+  // triangulation flips of interior facets cannot make regular.
+  Eigen::MatrixX3d y(64, 3);
+  for (int i = 0; i < 64; ++i) y.row(i) << 0.125 + 0.25 * (i % 4), 0.125 + 0.25 * (i / 4 % 4), 0.125 + 0.25 * (i / 16);
+  const Eigen::VectorXd psi0 = randomWeights(64, 31, 1e-3);
+  const Eigen::VectorXd psi = randomWeights(64, 32, 1e-3);
+  const PowerDiagram seed = computePowerDiagram(y, psi0, Domain::unitCube());
+  const PowerDiagram fresh = computePowerDiagram(y, psi, Domain::unitCube());
+  const PowerDiagram repaired =
+      computePowerDiagram(y, psi, Domain::unitCube(), CellMeasure::DualWhereInside, false, nullptr, &seed);
+  EXPECT_FALSE(repaired.repaired);
+  expectSameDiagram(repaired, fresh);
+  expectTiling(repaired, Domain::unitCube(), 1e-12);
+}
+
+TEST(PowerDiagram, SeedOfOtherSitesThrows) {
+  const Eigen::MatrixX3d y = randomPoints(50, 33);
+  const PowerDiagram seed = computePowerDiagram(y.topRows(40), Eigen::VectorXd::Zero(40), Domain::unitCube());
+  try {
+    computePowerDiagram(y, Eigen::VectorXd::Zero(50), Domain::unitCube(), CellMeasure::DualWhereInside, false,
+                        nullptr, &seed);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Usage);
+    EXPECT_NE(std::string(e.what()).find("seed"), std::string::npos);
+  }
+}

@@ -103,6 +103,8 @@ struct OptimalTransportOptions {
 struct OtIterationStats {
   double stepSize = 0;                 ///< accepted 2^-k
   int evaluations = 0;                 ///< power diagrams computed in the line search
+  int repairedDiagrams = 0;            ///< of those, triangulations repaired by flips (the rest CGAL's)
+  long flips = 0;                      ///< flips, also of repairs given up
   int linearIterations = 0;            ///< CG iterations (0 for Cholesky)
   double triangulationSeconds = 0;     ///< regular triangulations of this iteration
   double clippingSeconds = 0;          ///< clipping of this iteration

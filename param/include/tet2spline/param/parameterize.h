@@ -228,6 +228,7 @@ struct ParamResult {
     double morphDistance = 0;          ///< then: rms of |U − target| per vertex, in target edges (barrier_morph.h)
     double morphMaxDistance = 0;       ///< and its largest
     long boundarySmoothingMoves = 0;   ///< boundary vertex moves of the smoothing (all sweeps)
+    long interiorSmoothingMoves = 0;   ///< interior vertex moves of the smoothing (all sweeps)
     long boundarySmoothingRefused = 0; ///< its moves dropped to keep every tet positive
     double boundarySmoothingRms = 0;   ///< rms displacement of the boundary vertices by it
   } param;

@@ -8,7 +8,8 @@
 /// the area of the facet it shares with each neighbour inside Ω (what the
 /// Hessian of the Kantorovich dual needs). The neighbours come from a CGAL
 /// regular triangulation (built sequentially after a spatial sort: CGAL 5.5's
-/// parallel insertion has a race). Cells inside Ω are then measured from the
+/// parallel insertion has a race), or from a previous diagram's
+/// triangulation repaired by flips (`seed`). Cells inside Ω are then measured from the
 /// triangulation's dual (power centres), the others clipped independently by a
 /// small convex-polytope clipper (both in parallel, TBB; see CellMeasure), so
 /// volumes, centroids and areas are exact for the polytope up to rounding.
@@ -16,6 +17,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <vector>
 
 namespace tet2spline {
@@ -88,6 +90,14 @@ struct PowerDiagram {
   double triangulationSeconds = 0;   ///< regular triangulation + neighbour lists
   double clippingSeconds = 0;        ///< measuring the cells: dual polygons and clipping (parallel)
   int clippedCells = 0;              ///< cells measured by the clipper (the rest from the dual, see below)
+  /// The regular triangulation behind the diagram (empty when the sites
+  /// span less than 3 dimensions): its finite tets as site indices,
+  /// positively oriented, and per tet the tet across the face opposite each
+  /// slot (−1 on the sites' convex hull). Another diagram of the same sites
+  /// can start from it (computePowerDiagram's `seed`).
+  std::vector<std::array<int, 4>> tetVertex, tetNeighbour;
+  bool repaired = false;             ///< the triangulation came from a seed by flips, not from CGAL's insertion
+  long flips = 0;                    ///< flips tried on the seed's triangulation (also when the repair gave up)
 };
 
 /// How `computePowerDiagram` measures the cells.
@@ -124,9 +134,21 @@ enum class CellMeasure {
 /// transport: changing every ψ by a random 5·10⁻¹⁸ changed its smallest
 /// cells (10⁻¹³ of Ω) by 10⁻⁶ of their volume (optimal_transport.h).
 /// The regular triangulation's combinatorics use the weights alone.
+/// `seed` (or null): a diagram of the same sites (same order) under other
+/// weights. Its triangulation is repaired by 2-3 and 3-2 flips (Lawson's
+/// algorithm, exact predicates) instead of inserting every site again: when
+/// the weights moved little, as between Newton steps of the transport, that
+/// is a fraction of the insertion's time. When flips cannot do it (the seed
+/// hides sites, a site would become hidden, the flips stall, sites lie on
+/// the convex hull without being its corners) the triangulation is built
+/// from scratch. Both ways give the same tets in the same canonical order,
+/// so the result does not depend on the seed (up to ties of the power test:
+/// then either regular triangulation may come out, measuring the same cells
+/// up to rounding).
 PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
                                  const Domain& domain, CellMeasure measure = CellMeasure::DualWhereInside,
-                                 bool presorted = false, const Eigen::VectorXd* weightTails = nullptr);
+                                 bool presorted = false, const Eigen::VectorXd* weightTails = nullptr,
+                                 const PowerDiagram* seed = nullptr);
 
 /// The order (a permutation of 0..#N−1) in which computePowerDiagram works:
 /// CGAL's Hilbert sort with the median policy. A caller that builds many
