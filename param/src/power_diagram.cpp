@@ -852,10 +852,20 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     }
 
 
-  if (seed && static_cast<int>(seed->neighbourStart.size()) != n + 1)
-    throw Error(ErrorKind::Usage, "computePowerDiagram: the seed diagram has " +
-                                      std::to_string(static_cast<long>(seed->neighbourStart.size()) - 1) +
-                                      " sites, not " + std::to_string(n));
+  if (seed) {
+    if (static_cast<int>(seed->neighbourStart.size()) != n + 1)
+      throw Error(ErrorKind::Usage, "computePowerDiagram: the seed diagram has " +
+                                        std::to_string(static_cast<long>(seed->neighbourStart.size()) - 1) +
+                                        " sites, not " + std::to_string(n));
+    const long nt = static_cast<long>(seed->tetVertex.size());
+    bool valid = static_cast<long>(seed->tetNeighbour.size()) == nt;
+    for (long t = 0; t < nt && valid; ++t)
+      for (int q = 0; q < 4; ++q)
+        valid = valid && seed->tetVertex[t][q] >= 0 && seed->tetVertex[t][q] < n && seed->tetNeighbour[t][q] >= -1 &&
+                seed->tetNeighbour[t][q] < nt;
+    if (!valid)
+      throw Error(ErrorKind::Usage, "computePowerDiagram: the seed diagram's tets index sites or tets out of range");
+  }
   if (presorted) return diagramOfSortedSites(points, weights, weightTails, domain, measure, seed);
 
   // Work in Hilbert order: with the sites in input order (random, for the

@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <utility>
 
 namespace tet2spline {
@@ -88,13 +89,22 @@ class FlipRepair {
     if (!hullInGeneralPosition()) return false;
     const int nt = static_cast<int>(tets_.vertex.size());
     // Every facet once (from its lower-numbered tet), in parallel.
+    // A tet that is not positive in these sites means the seed was not a
+    // triangulation of them: given up.
     tbb::enumerable_thread_specific<std::vector<std::pair<int, int>>> found;
+    std::atomic<bool> positive{true};
     tbb::parallel_for(tbb::blocked_range<int>(0, nt, 4096), [&](const tbb::blocked_range<int>& range) {
       auto& local = found.local();
-      for (int t = range.begin(); t != range.end(); ++t)
+      for (int t = range.begin(); t != range.end(); ++t) {
+        const auto& v = tets_.vertex[t];
+        if (orientation_(site_[v[0]].point(), site_[v[1]].point(), site_[v[2]].point(), site_[v[3]].point()) !=
+            CGAL::POSITIVE)
+          positive = false;
         for (int q = 0; q < 4; ++q)
           if (tets_.neighbour[t][q] > t && !regular(t, q)) local.emplace_back(t, q);
+      }
     });
+    if (!positive) return false;
     for (const auto& local : found) stack_.insert(stack_.end(), local.begin(), local.end());
     std::sort(stack_.begin(), stack_.end(), std::greater<>());  // popped in increasing order: deterministic
     std::vector<std::pair<int, int>> deferred;

@@ -428,7 +428,7 @@ TEST(PowerDiagram, SitesOnTheHullsFacesAreNotRepaired) {
   expectTiling(repaired, Domain::unitCube(), 1e-12);
 }
 
-TEST(PowerDiagram, SeedOfOtherSitesThrows) {
+TEST(PowerDiagram, SeedOfOtherSitesIsRefused) {
   const Eigen::MatrixX3d y = randomPoints(50, 33);
   const PowerDiagram seed = computePowerDiagram(y.topRows(40), Eigen::VectorXd::Zero(40), Domain::unitCube());
   try {
@@ -439,4 +439,19 @@ TEST(PowerDiagram, SeedOfOtherSitesThrows) {
     EXPECT_EQ(e.kind(), ErrorKind::Usage);
     EXPECT_NE(std::string(e.what()).find("seed"), std::string::npos);
   }
+  PowerDiagram broken = computePowerDiagram(y, Eigen::VectorXd::Zero(50), Domain::unitCube());
+  ASSERT_FALSE(broken.tetVertex.empty());
+  broken.tetVertex[0][2] = 50;
+  EXPECT_THROW(computePowerDiagram(y, Eigen::VectorXd::Zero(50), Domain::unitCube(), CellMeasure::DualWhereInside,
+                                   false, nullptr, &broken),
+               Error);
+  // Another point set of the same size: its tets are not all positive in
+  // these sites, so the seed is given up and the diagram built afresh.
+  const Eigen::MatrixX3d other = randomPoints(50, 34);
+  const PowerDiagram foreign = computePowerDiagram(other, Eigen::VectorXd::Zero(50), Domain::unitCube());
+  const PowerDiagram fresh = computePowerDiagram(y, Eigen::VectorXd::Zero(50), Domain::unitCube());
+  const PowerDiagram fromForeign = computePowerDiagram(y, Eigen::VectorXd::Zero(50), Domain::unitCube(),
+                                                       CellMeasure::DualWhereInside, false, nullptr, &foreign);
+  EXPECT_FALSE(fromForeign.repaired);
+  expectSameDiagram(fromForeign, fresh);
 }
