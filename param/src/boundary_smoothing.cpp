@@ -130,6 +130,30 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
     return true;
   };
 
+  // Moves vertex i `step` of the way to target, halving the step up to four
+  // times until the move is acceptable; `project` puts a trial position on
+  // ∂Ω (false: that trial is skipped). Restores i and returns false if no
+  // trial is taken.
+  auto moveTowards = [&](int i, const Eigen::RowVector3d& target, const auto& project) {
+    const Eigen::RowVector3d old = P.row(i);
+    before.clear();
+    misfitBefore = 0;
+    for (int k = tetsOf.offset[static_cast<size_t>(i)]; k < tetsOf.offset[static_cast<size_t>(i) + 1]; ++k) {
+      const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
+      before.push_back(tetVolume6(P, T, t));
+      if (measured) misfitBefore += misfit(t, before.back());
+    }
+    double s = options.step;
+    for (int halving = 0; halving <= 4; ++halving, s *= 0.5) {
+      Eigen::RowVector3d p = old + s * (target - old);
+      if (!project(p)) continue;
+      P.row(i) = p;
+      if (acceptable(i)) return true;
+    }
+    P.row(i) = old;
+    return false;
+  };
+
   for (int sweep = 0; sweep < options.sweeps; ++sweep) {
     for (int i : boundary) {
       const Eigen::RowVector3d old = P.row(i);
@@ -157,36 +181,20 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
       } else if (!localFit(i, ring[static_cast<size_t>(i)], target)) {
         continue;
       }
-      before.clear();
-      misfitBefore = 0;
-      for (int k = tetsOf.offset[static_cast<size_t>(i)]; k < tetsOf.offset[static_cast<size_t>(i) + 1]; ++k) {
-        const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
-        before.push_back(tetVolume6(P, T, t));
-        if (measured) misfitBefore += misfit(t, before.back());
-      }
-      double s = options.step;
-      bool taken = false;
-      for (int halving = 0; halving <= 4 && !taken; ++halving, s *= 0.5) {
-        Eigen::RowVector3d p = old + s * (target - old);
-        if (cube) {
-          bool inside = true;
-          for (int k = 0; k < 3; ++k) {
-            if (pinned >> k & 1) p[k] = old[k];
-            else if (!(p[k] > 0.0 && p[k] < 1.0)) inside = false;
-          }
-          if (!inside) continue;
-        } else {
+      const bool taken = moveTowards(i, target, [&](Eigen::RowVector3d& p) {
+        if (!cube) {
           p /= p.norm();
+          return true;
         }
-        P.row(i) = p;
-        taken = acceptable(i);
-      }
-      if (taken) {
-        ++result.moves;
-      } else {
-        P.row(i) = old;
-        ++result.refused;
-      }
+        bool inside = true;
+        for (int k = 0; k < 3; ++k) {
+          if (pinned >> k & 1) p[k] = old[k];
+          else if (!(p[k] > 0.0 && p[k] < 1.0)) inside = false;
+        }
+        return inside;
+      });
+      if (taken) ++result.moves;
+      else ++result.refused;
     }
   }
   // Interior sweeps: the same rule with the affine function of x in 3D
@@ -226,26 +234,8 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
         if (!(eig.eigenvalues()(0) > 1e-3 * eig.eigenvalues()(2))) continue;
         const Eigen::RowVector3d target = AtA.ldlt().solve(AtR).row(0);
         if (!target.allFinite()) continue;
-        const Eigen::RowVector3d old = P.row(i);
-        before.clear();
-        misfitBefore = 0;
-        for (int k = k0; k < k1; ++k) {
-          const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
-          before.push_back(tetVolume6(P, T, t));
-          if (measured) misfitBefore += misfit(t, before.back());
-        }
-        double s = options.step;
-        bool taken = false;
-        for (int halving = 0; halving <= 4 && !taken; ++halving, s *= 0.5) {
-          P.row(i) = old + s * (target - old);
-          taken = acceptable(i);
-        }
-        if (taken) {
-          ++result.interiorMoves;
-        } else {
-          P.row(i) = old;
-          ++result.refused;
-        }
+        if (moveTowards(i, target, [](Eigen::RowVector3d&) { return true; })) ++result.interiorMoves;
+        else ++result.refused;
       }
     }
   }

@@ -59,6 +59,20 @@ void expectCubeInvariants(const Eigen::MatrixX3d& before, const Eigen::MatrixX3d
   }
 }
 
+// Where noise flattened or turned a tet of U, its vertices go back to `exact`
+// (repeated until every tet is positive).
+void restoreFlattenedTets(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& exact, const Eigen::MatrixX4i& T) {
+  for (bool again = true; again;) {
+    again = false;
+    for (Eigen::Index t = 0; t < T.rows(); ++t) {
+      const Eigen::Vector3d a = U.row(T(t, 0)), b = U.row(T(t, 1)), c = U.row(T(t, 2)), d = U.row(T(t, 3));
+      if (orient3d(a.data(), b.data(), c.data(), d.data()) > 0) continue;
+      for (int k = 0; k < 4; ++k) U.row(T(t, k)) = exact.row(T(t, k));
+      again = true;
+    }
+  }
+}
+
 }  // namespace
 
 TEST(BoundarySmoothing, AnAffineCubeMapIsAFixedPoint) {
@@ -93,15 +107,7 @@ TEST(BoundarySmoothing, RemovesInteriorNoise) {
     }
   }
   // (Where the noise flattened a Kuhn tet, its vertices go back.)
-  for (bool again = true; again;) {
-    again = false;
-    for (Eigen::Index t = 0; t < m.numTets(); ++t) {
-      const Eigen::Vector3d a = U.row(m.T(t, 0)), b = U.row(m.T(t, 1)), c = U.row(m.T(t, 2)), d = U.row(m.T(t, 3));
-      if (orient3d(a.data(), b.data(), c.data(), d.data()) > 0) continue;
-      for (int k = 0; k < 4; ++k) U.row(m.T(t, k)) = exact.row(m.T(t, k));
-      again = true;
-    }
-  }
+  restoreFlattenedTets(U, exact, m.T);
   ASSERT_EQ(countNonPositiveTets(U, m.T), 0);
   BoundarySmoothingOptions o;
   o.sweeps = 0;
@@ -144,15 +150,7 @@ TEST(BoundarySmoothing, RemovesTangentialNoiseOnTheSphere) {
   }
   // (The ball's boundary tets are thin: where the noise flattened one, its
   // vertices go back to the exact sphere map.)
-  for (bool again = true; again;) {
-    again = false;
-    for (Eigen::Index t = 0; t < m.numTets(); ++t) {
-      const Eigen::Vector3d a = U.row(m.T(t, 0)), b = U.row(m.T(t, 1)), c = U.row(m.T(t, 2)), d = U.row(m.T(t, 3));
-      if (orient3d(a.data(), b.data(), c.data(), d.data()) > 0) continue;
-      for (int k = 0; k < 4; ++k) U.row(m.T(t, k)) = exact.row(m.T(t, k));
-      again = true;
-    }
-  }
+  restoreFlattenedTets(U, exact, m.T);
   BoundarySmoothingOptions o;
   o.shape = BoundaryShape::UnitSphere;
   o.interiorSweeps = 0;
