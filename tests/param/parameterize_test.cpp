@@ -91,6 +91,24 @@ TEST_P(TwoRegions, AnExhaustedUntanglingBudgetGoesToTheMorph) {
   EXPECT_TRUE(named);
 }
 
+// The budget spent with a few tets left on the cube: ε rounds with the local
+// repair after each finish the map (ParamResult::param.finishingRounds)
+// instead of the morph. blobby's composition inverts about 500 tets; a
+// budget spent at the first ε update leaves a few of them.
+TEST(Parameterize, FinishingRoundsRepairWhatASpentBudgetLeaves) {
+  TetrahedralizeOptions meshing;
+  meshing.exactBoundary = false;  // the command line's default
+  const TetMesh mesh = tetrahedralize(readSurface(t2stest::cgalMesh("blobby")), meshing, "blobby");
+  ParamOptions o;
+  o.domain = ParamDomain::Cube;
+  o.finalUntangleWork = 1e-3;  // spent by the first ε update
+  const ParamResult r = parameterize(mesh, o);
+  ASSERT_GT(r.param.invertedTetsBeforeUntangling, 0);
+  EXPECT_GT(r.param.finishingRounds, 0);
+  EXPECT_FALSE(r.param.morphed);
+  expectValidParameterization(r, ParamDomain::Cube);
+}
+
 TEST(Parameterize, UnchangedUnderRigidMotionAndScaling) {
   const TetMesh mesh = twoRegionSphere();
   ParamOptions o;

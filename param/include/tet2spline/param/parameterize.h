@@ -224,6 +224,7 @@ struct ParamResult {
     double volumeRatioMin = 0, volumeRatioMax = 0;
     int cornerVertices = 0, edgeVertices = 0;  ///< cube: boundary vertices put on corners / edges
     int flippedBoundaryTriangles = 0;  ///< exact, boundary triangles flipped on ∂Ω (seen from its centre)
+    int finishingRounds = 0;           ///< cube: ε rounds after the final untangling's budget was spent, each leaving fewer
     bool morphed = false;              ///< the final map is the ball map morphed towards the untangler's result
     double morphDistance = 0;          ///< then: rms of |U − target| per vertex, in target edges (barrier_morph.h)
     double morphMaxDistance = 0;       ///< and its largest
