@@ -713,8 +713,9 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // 9 tets and 2 triangles left after the sliding phase (three face
       // vertices slid onto one cube edge from two faces): 7 -> 0 in one round,
       // in well under a second, where the morph's cube start fails; with
-      // another transport's last bits, 53 left, 55 -> 2 in the first round
-      // (5 s), and the morph took 931 s for the last 2.
+      // another transport's last bits, 53 left after the local repair:
+      // 55 -> 2 -> 0 in two rounds (5 s), where a single round left 2 and
+      // the morph took 931 s for them.
       int leftOver = untangled.invertedAfter + untangled.flippedBoundaryTriangles;
       if (options.domain == ParamDomain::Cube && leftOver > 0 && untangled.budgetExhausted && !untangled.stopped &&
           options.untangle.localRepairSweeps > 0 &&

@@ -172,10 +172,14 @@ struct ParamOptions {
   /// after the local repair, and the morph makes the map valid in 459 s
   /// (rms 0.044 target edges; 1486 s in all, the cores shared). On the
   /// cube, a budget spent with at most max(100, 2% of the tets) tets and
-  /// boundary triangles left gets one more ε round across cube edges and
-  /// the local repair (parameterize.cpp): bunny00's cube map, 9 tets and 2
-  /// triangles left after 298 s, is then valid, without the morph (whose
-  /// cube start fails there).
+  /// boundary triangles left gets more ε rounds across cube edges, each
+  /// with the local repair, while each leaves fewer (at most 8,
+  /// parameterize.cpp; report param.finishing_rounds): bunny00's cube map,
+  /// 9 tets and 2 triangles left after 298 s, was valid after one, without
+  /// the morph (whose cube start fails there); with the transport's later
+  /// last bits, 53 left after the local repair, two rounds (55 -> 2 -> 0,
+  /// 5 s) make it valid, where one left 2 and the morph took 931 s. The
+  /// rounds are the cube's only: on the ball the morph takes what is left.
   double finalUntangleWork = 3000;
   bool splitChords = true;             ///< step 1 (required for the cube)
   ProgressCallback progress = {};      ///< fraction over the whole stage; false stops
