@@ -162,15 +162,19 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
     return base.row(static_cast<Eigen::Index>(k)).transpose() +
            precond[freeVerts[k]] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
   };
+  // The tets read their corners from a row-major copy of W (as the
+  // untangler does): each vertex's three coordinates in one cache line.
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rowMajorW;
   auto evaluate = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) -> double {
     for (size_t k = 0; k < nFree; ++k) place(k, unknown(k, x));
+    rowMajorW = W;
     const double E = tbb::parallel_deterministic_reduce(
         tbb::blocked_range<size_t>(0, active.size(), 1024), 0.0,
         [&](const tbb::blocked_range<size_t>& r, double sum) {
           for (size_t a = r.begin(); a != r.end(); ++a) {
             const int t = active[a];
             const auto& G = grad[static_cast<size_t>(t)];
-            const Eigen::Matrix3d J = detail::tetJacobian(W, T, t, G);
+            const Eigen::Matrix3d J = detail::tetJacobian(rowMajorW, T, t, G);
             const double D = J.determinant();
             if (!(D > 0)) return std::numeric_limits<double>::infinity();  // the barrier
             Eigen::Matrix3d dJ;

@@ -18,7 +18,8 @@ using Matrix9d = Eigen::Matrix<double, 9, 9>;
 /// J of tet t of T at positions W (rows), reference barycentric gradients G
 /// (one per column): Σ_k (W_k − W_0) G_kᵀ, from edge vectors, not positions
 /// (no cancellation where a tet is 10⁻⁸ wide at |u| = 1).
-inline Eigen::Matrix3d tetJacobian(const Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, Eigen::Index t,
+template <class Positions>  // #V × 3, either storage order
+inline Eigen::Matrix3d tetJacobian(const Positions& W, const Eigen::MatrixX4i& T, Eigen::Index t,
                                    const Eigen::Matrix<double, 3, 4>& G) {
   Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
   for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
