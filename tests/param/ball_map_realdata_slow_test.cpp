@@ -5,6 +5,7 @@
 
 #include <iostream>
 
+#include "cli_meshing.h"
 #include "test_data.h"
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/ball_map.h"
@@ -78,9 +79,7 @@ TEST(BallMapRealData, SolidWithAFilledVoid) {
 class BallMapForTransport : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(BallMapForTransport, BijectiveOntoTheBall) {
-  TetrahedralizeOptions meshing;
-  meshing.exactBoundary = false;
-  TetMesh m = tetrahedralize(readSurface(t2stest::cgalMesh(GetParam())), meshing, GetParam());
+  TetMesh m = t2stest::cliMeshedCgalSurface(GetParam());
   splitBoundaryChords(m);
   BallMapOptions o;
   o.sphere.areaCorrectionIterations = ParamOptions().sphereAreaCorrectionIterations;

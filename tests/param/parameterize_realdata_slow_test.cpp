@@ -23,6 +23,7 @@
 #include <tuple>
 
 #include "param_checks.h"
+#include "cli_meshing.h"
 #include "test_data.h"
 #include "tet2spline/io/cad_io.h"
 #include "tet2spline/io/mesh_io.h"
@@ -40,9 +41,7 @@ class ParamRealData : public ::testing::TestWithParam<std::tuple<const char*, Pa
 
 TEST_P(ParamRealData, ValidMeasurePreservingParameterization) {
   const auto [name, domain] = GetParam();
-  TetrahedralizeOptions meshing;
-  meshing.exactBoundary = false;  // the command line's default
-  const TetMesh mesh = tetrahedralize(readSurface(t2stest::cgalMesh(name)), meshing, name);
+  const TetMesh mesh = t2stest::cliMeshedCgalSurface(name);
   ParamOptions o;
   o.domain = domain;
   const ParamResult r = parameterize(mesh, o);
@@ -151,9 +150,7 @@ class ParamMorphFallback : public ::testing::TestWithParam<std::tuple<const char
 
 TEST_P(ParamMorphFallback, ValidWhereTheUntanglingFails) {
   const auto [name, domain] = GetParam();
-  TetrahedralizeOptions meshing;
-  meshing.exactBoundary = false;
-  const TetMesh mesh = tetrahedralize(readSurface(t2stest::cgalMesh(name)), meshing, name);
+  const TetMesh mesh = t2stest::cliMeshedCgalSurface(name);
   ParamOptions o;
   o.domain = domain;
   const ParamResult r = parameterize(mesh, o);

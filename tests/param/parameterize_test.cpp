@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "param_checks.h"
+#include "cli_meshing.h"
 #include "test_data.h"
 #include "tet2spline/io/mesh_io.h"
 #include "test_shapes.h"
@@ -96,9 +97,7 @@ TEST_P(TwoRegions, AnExhaustedUntanglingBudgetGoesToTheMorph) {
 // instead of the morph. blobby's composition inverts about 500 tets; a
 // budget spent at the first ε update leaves a few of them.
 TEST(Parameterize, FinishingRoundsRepairWhatASpentBudgetLeaves) {
-  TetrahedralizeOptions meshing;
-  meshing.exactBoundary = false;  // the command line's default
-  const TetMesh mesh = tetrahedralize(readSurface(t2stest::cgalMesh("blobby")), meshing, "blobby");
+  const TetMesh mesh = t2stest::cliMeshedCgalSurface("blobby");
   ParamOptions o;
   o.domain = ParamDomain::Cube;
   o.finalUntangleWork = 1e-3;  // spent by the first ε update
@@ -137,9 +136,7 @@ TEST(Parameterize, BallMapInversionsDoNotStopTheTransportButDoStopTheBallMapResu
   // sites, so the composed and untangled parameterization is valid on its
   // own and says so in a warning; without transport the ball map is the
   // result, and an inverted one is a failure.
-  TetrahedralizeOptions meshing;
-  meshing.exactBoundary = false;  // the command line's default
-  const TetMesh mesh = tetrahedralize(readSurface(t2stest::cgalMesh("blob-closed")), meshing, "blob-closed");
+  const TetMesh mesh = t2stest::cliMeshedCgalSurface("blob-closed");
   ParamOptions o;
   o.domain = ParamDomain::Cube;
   o.ballMap.untangleMap = false;
