@@ -647,6 +647,14 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // 6. untangling with the boundary on ∂Ω
       t0 = Clock::now();
       UntangleOptions untangleOptions = options.untangle;
+      // Joint patch moves in the local repair: on the ball only. Measured on
+      // bunny00 (767k tets), whose last tets are chaotic either way: on the
+      // ball they took the finishing rounds 6 -> 2 -> 1 -> 0 where single
+      // moves stopped at 2 (then a morph); on the cube the repair at the
+      // spent budget left 15 instead of 53, but the rounds then stopped at 1
+      // (24 -> 2, 3 -> 1, 1 -> 1) where without them they reach 0
+      // (55 -> 2, 13 -> 0), and the morph took over.
+      untangleOptions.localRepairPatches = options.domain == ParamDomain::Ball;
       untangleOptions.targetVolumes = r.targetVolume;
       untangleOptions.progress = [&](double, const std::string& m) {
         return !options.progress || options.progress(-1, "final " + m);
@@ -707,8 +715,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
           untangled = runPhase(untangled.U);
         }
       }
-      // The budget spent with a few tets left on the cube: more ε rounds,
-      // across edges, each with the local repair after it, while each leaves
+      // The budget spent with a few tets left: more ε rounds (on the cube
+      // across edges), each with the local repair after it, while each leaves
       // fewer (at most kFinishingRounds). Measured on bunny00 (767k tets):
       // 9 tets and 2 triangles left after the sliding phase (three face
       // vertices slid onto one cube edge from two faces): 7 -> 0 in one round,
@@ -716,12 +724,14 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // another transport's last bits, 53 left after the local repair:
       // 55 -> 2 -> 0 in two rounds (5 s), where a single round left 2 and
       // the morph took 931 s for them.
+      // The ball gets the same rounds, now that the local repair slides
+      // sphere vertices and moves patches jointly (untangle.h,
+      // localRepairSweeps): bunny00's ball map, 6 left, 6 -> 2 -> 1 -> 0.
       int leftOver = untangled.invertedAfter + untangled.flippedBoundaryTriangles;
-      if (options.domain == ParamDomain::Cube && leftOver > 0 && untangled.budgetExhausted && !untangled.stopped &&
-          options.untangle.localRepairSweeps > 0 &&
+      if (leftOver > 0 && untangled.budgetExhausted && !untangled.stopped && options.untangle.localRepairSweeps > 0 &&
           leftOver <= std::max(100.0, options.untangle.localRepairFraction * static_cast<double>(nt))) {
         freeTheBoundary();
-        untangleOptions.cubeAcrossEdges = true;
+        untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
         for (int round = 0; round < kFinishingRounds && leftOver > 0; ++round) {
           UntangleResult finished = runPhase(untangled.U);  // (the budget is spent: one ε round)
           if (finished.stopped) throw Status::failure("stopped during the final untangling");

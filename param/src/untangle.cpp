@@ -61,7 +61,11 @@ void growRings(std::vector<char>& mark, const Eigen::MatrixX4i& T, const detail:
 // a·z + b > 0 over z = (d, t) with d the free coordinates' displacement;
 // z starts strictly feasible. Log-barrier path following, Newton inside.
 // Returns z.
-Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, Eigen::VectorXd z) {
+// `products`: H and g by dense matrix products (for the patches' larger
+// problems) instead of a sum over the rows (the single vertices' problems,
+// kept as they were so that their results stay bitwise the same).
+Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, Eigen::VectorXd z,
+                              bool products = false, double gap = 1e-7) {
   const Eigen::Index n = z.size(), m = a.rows();
   auto slack = [&](const Eigen::VectorXd& y) -> Eigen::VectorXd { return a * y + b; };
   auto phi = [&](const Eigen::VectorXd& y, double tau, bool& ok) {
@@ -69,15 +73,22 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
     ok = (r.array() > 0).all();
     return ok ? -tau * y(n - 1) - r.array().log().sum() : std::numeric_limits<double>::infinity();
   };
-  for (double tau = 1; tau < 1e9 && static_cast<double>(m) / tau > 1e-7; tau *= 8) {
+  // (τ up to 1e9 at the default gap, as before; smaller gaps go further)
+  for (double tau = 1; tau < (gap < 1e-7 ? 1e3 / gap : 1e9) && static_cast<double>(m) / tau > gap; tau *= 8) {
     for (int it = 0; it < 40; ++it) {
       const Eigen::VectorXd r = slack(z);
       Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
       g(n - 1) = -tau;
       Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
-      for (Eigen::Index j = 0; j < m; ++j) {
-        g -= a.row(j).transpose() / r(j);
-        H += a.row(j).transpose() * a.row(j) / (r(j) * r(j));
+      if (products) {
+        const Eigen::MatrixXd scaled = r.cwiseInverse().asDiagonal() * a;
+        g -= scaled.transpose() * Eigen::VectorXd::Ones(m);
+        H.noalias() = scaled.transpose() * scaled;
+      } else {
+        for (Eigen::Index j = 0; j < m; ++j) {
+          g -= a.row(j).transpose() / r(j);
+          H += a.row(j).transpose() * a.row(j) / (r(j) * r(j));
+        }
       }
       const Eigen::VectorXd dz = -H.ldlt().solve(g);
       const double decrement = -g.dot(dz);
@@ -96,6 +107,100 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
   return z;
 }
 
+constexpr std::uint8_t kMoveOnSphere = 8;
+constexpr int kPatchRepairAtMost = 100;  // tets and triangles left, for the patch moves
+
+// Tet t's signed volume at positions W.
+double tetVolume(const Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, Eigen::Index t) {
+  const Eigen::Vector3d p0 = W.row(T(t, 0)), p1 = W.row(T(t, 1)), p2 = W.row(T(t, 2)), p3 = W.row(T(t, 3));
+  return (p1 - p0).cross(p2 - p0).dot(p3 - p0) / 6;
+}
+
+// The gradient of tet t's volume in its corner k's position:
+// vol = (−1)^k (a − p)·n / 6 with (a, b, c) the next three corners (a cyclic
+// shift of four is odd), n = (b − a) × (c − a).
+Eigen::Vector3d volumeGradient(const Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, Eigen::Index t, int k) {
+  const Eigen::Vector3d pa = W.row(T(t, (k + 1) % 4)), pb = W.row(T(t, (k + 2) % 4)), pc = W.row(T(t, (k + 3) % 4));
+  return -((k % 2) ? -1.0 : 1.0) * (pb - pa).cross(pc - pa) / 6;
+}
+
+// How vertex v may move in a max-min step: directions (coordinate axes, or
+// an orthonormal basis of the sphere's tangent plane at it) and, per
+// direction, how far it may go down and up: to [lo, hi] along an axis,
+// `reach` along a tangent. reach = a quarter of the shortest edge of v's
+// star: the linearised volumes hold to about that distance.
+struct VertexMoves {
+  Eigen::Matrix<double, 3, Eigen::Dynamic> dirs;
+  Eigen::VectorXd below, above;
+  double reach = 0;
+  bool onSphere = false;
+};
+
+VertexMoves vertexMoves(const Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::VertexTets& vt, int v,
+                        std::uint8_t bits, double lo, double hi) {
+  VertexMoves m;
+  const Eigen::Vector3d p0 = W.row(v);
+  double shortest = std::numeric_limits<double>::infinity();
+  for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e) {
+    const int t = vt.corner[static_cast<size_t>(e)] / 4;
+    for (int k = 0; k < 4; ++k)
+      if (T(t, k) != v) shortest = std::min(shortest, (W.row(T(t, k)).transpose() - p0).norm());
+  }
+  m.reach = 0.25 * shortest;
+  m.onSphere = bits == kMoveOnSphere;
+  if (m.onSphere) {
+    const Eigen::Vector3d n = p0.normalized();
+    const Eigen::Vector3d e1 = n.unitOrthogonal(), e2 = n.cross(e1);
+    m.dirs.resize(3, 2);
+    m.dirs << e1, e2;
+    m.below = m.above = Eigen::Vector2d::Constant(m.reach);
+    return m;
+  }
+  std::vector<int> dims;
+  for (int d = 0; d < 3; ++d)
+    if ((bits >> d) & 1) dims.push_back(d);
+  const auto nd = static_cast<Eigen::Index>(dims.size());
+  m.dirs = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, nd);
+  m.below.resize(nd), m.above.resize(nd);
+  for (Eigen::Index i = 0; i < nd; ++i) {
+    const int d = dims[static_cast<size_t>(i)];
+    m.dirs(d, i) = 1;
+    m.below(i) = p0(d) - lo, m.above(i) = hi - p0(d);
+  }
+  return m;
+}
+
+// For joint moves: every bound within `reach` (along axes too), and the
+// directions with no room on one side dropped (a barrier needs a strictly
+// feasible start).
+void withinReach(VertexMoves& m) {
+  Eigen::Index kept = 0;
+  for (Eigen::Index i = 0; i < m.below.size(); ++i) {
+    const double below = std::min(m.below(i), m.reach), above = std::min(m.above(i), m.reach);
+    if (!(below > 0 && above > 0)) continue;
+    m.dirs.col(kept) = m.dirs.col(i);
+    m.below(kept) = below, m.above(kept) = above;
+    ++kept;
+  }
+  m.dirs.conservativeResize(3, kept);
+  m.below.conservativeResize(kept), m.above.conservativeResize(kept);
+}
+
+// p0 moved by `fraction` of the step z along the directions of `moves`: on
+// the sphere projected back onto it; along axes only the free coordinates
+// change (each by exactly fraction·z_i).
+Eigen::Vector3d movedTo(const Eigen::Vector3d& p0, const VertexMoves& moves, const Eigen::VectorXd& z, double fraction) {
+  Eigen::Vector3d p = p0;
+  if (moves.onSphere) {
+    p += fraction * (moves.dirs * z);
+    return p / p.norm();
+  }
+  for (Eigen::Index i = 0; i < z.size(); ++i)
+    for (int d = 0; d < 3; ++d)
+      if (moves.dirs(d, i) == 1) p(d) += fraction * z(i);
+  return p;
+}
+
 // Local repair by max-min volume (Freitag and Plassmann, "Local
 // optimization-based simplicial mesh untangling and improvement", IJNME
 // 2000): each movable vertex of an inverted tet goes where the least
@@ -108,16 +213,18 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
 // ring of the inverted tets join (at most four rings; those with a
 // well-shaped star are left alone).
 // `movable` per vertex: bits of the coordinates that may change (0 = held),
-// positions kept in [lo, hi]. Volumes are normalised by `scale` (per tet).
-// Returns the number of vertex moves.
+// positions kept in [lo, hi]; or kMoveOnSphere: the vertex slides on the
+// unit sphere. Such a vertex moves in its tangent plane, at most a quarter
+// of its shortest star edge along each tangent, and is then projected back
+// onto the sphere (p/|p|); the max-min solution is of the linearised problem,
+// so the projected move is halved until its star's worst volume rises (at
+// most eight times), else the vertex stays. Volumes are normalised by
+// `scale` (per tet). Returns the number of vertex moves.
 int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::VertexTets& vt,
                  const std::vector<std::uint8_t>& movable, const Eigen::VectorXd& scale, double lo, double hi,
                  int maxSweeps) {
   const Eigen::Index ntx = T.rows();
-  auto volume = [&](Eigen::Index t) {
-    const Eigen::Vector3d p0 = W.row(T(t, 0)), p1 = W.row(T(t, 1)), p2 = W.row(T(t, 2)), p3 = W.row(T(t, 3));
-    return (p1 - p0).cross(p2 - p0).dot(p3 - p0) / 6;
-  };
+  auto volume = [&](Eigen::Index t) { return tetVolume(W, T, t); };
   auto positive = [&](Eigen::Index t) { return positiveTet(W, T, t); };
   int moved = 0, rings = 0, stalled = 0;
   double bestWorst = -std::numeric_limits<double>::infinity();
@@ -149,26 +256,23 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
     int movedNow = 0;
     for (int v : verts) {
       const std::uint8_t bits = movable[static_cast<size_t>(v)];
-      std::vector<int> dims;
-      for (int d = 0; d < 3; ++d)
-        if ((bits >> d) & 1) dims.push_back(d);
-      const auto nd = static_cast<Eigen::Index>(dims.size());
       const int first = vt.offset[static_cast<size_t>(v)], last = vt.offset[static_cast<size_t>(v) + 1];
+      const Eigen::Vector3d p0 = W.row(v);
+      const VertexMoves moves = vertexMoves(W, T, vt, v, bits, lo, hi);
+      const bool onSphere = moves.onSphere;
+      const auto& dirs = moves.dirs;
+      const Eigen::Index nd = dirs.cols();
       const Eigen::Index m = (last - first) + 1 + 2 * nd;
       Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, nd + 1);
       Eigen::VectorXd b(m);
-      const Eigen::Vector3d p0 = W.row(v);
       double worst = std::numeric_limits<double>::infinity();
       Eigen::Index row = 0;
       for (int e = first; e < last; ++e) {
         const int t = vt.corner[static_cast<size_t>(e)] / 4, k = vt.corner[static_cast<size_t>(e)] % 4;
-        // vol = (−1)^k (a − p)·n / 6 with (a, b, c) the next three corners
-        // (a cyclic shift of four is odd), n = (b − a) × (c − a).
-        const Eigen::Vector3d pa = W.row(T(t, (k + 1) % 4)), pb = W.row(T(t, (k + 2) % 4)), pc = W.row(T(t, (k + 3) % 4));
-        const Eigen::Vector3d grad = -((k % 2) ? -1.0 : 1.0) * (pb - pa).cross(pc - pa) / 6;
+        const Eigen::Vector3d grad = volumeGradient(W, T, t, k);
         const double s = scale(t);
         const double v0 = volume(t) / s;
-        for (Eigen::Index i = 0; i < nd; ++i) a(row, i) = grad(dims[static_cast<size_t>(i)]) / s;
+        for (Eigen::Index i = 0; i < nd; ++i) a(row, i) = grad.dot(dirs.col(i)) / s;
         a(row, nd) = -1;
         b(row) = v0;
         worst = std::min(worst, v0);
@@ -177,10 +281,9 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
       a(row, nd) = -1, b(row) = 1, ++row;  // t <= 1
       bool inside = true;
       for (Eigen::Index i = 0; i < nd; ++i) {
-        const double x = p0(dims[static_cast<size_t>(i)]);
-        inside = inside && x > lo && x < hi;
-        a(row, i) = 1, b(row) = x - lo, ++row;
-        a(row, i) = -1, b(row) = hi - x, ++row;
+        inside = inside && moves.below(i) > 0 && moves.above(i) > 0;
+        a(row, i) = 1, b(row) = moves.below(i), ++row;
+        a(row, i) = -1, b(row) = moves.above(i), ++row;
       }
       if (!inside || nd == 0 || !(worst < 1)) continue;
       if (rings > 0 && worst > 0.5) continue;  // a well-shaped star around: leave it
@@ -188,15 +291,20 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
       z(nd) = worst - 1;
       z = maxMinBarrier(a, b, z);
       if (!(z(nd) > worst)) continue;
-      Eigen::Vector3d p = p0;
-      for (Eigen::Index i = 0; i < nd; ++i) p(dims[static_cast<size_t>(i)]) += z(i);
-      W.row(v) = p.transpose();
-      double after = std::numeric_limits<double>::infinity();
-      for (int e = first; e < last; ++e) {
-        const int t = vt.corner[static_cast<size_t>(e)] / 4;
-        after = std::min(after, volume(t) / scale(t));
+      auto starWorst = [&] {
+        double least = std::numeric_limits<double>::infinity();
+        for (int e = first; e < last; ++e) {
+          const int t = vt.corner[static_cast<size_t>(e)] / 4;
+          least = std::min(least, volume(t) / scale(t));
+        }
+        return least;
+      };
+      bool better = false;
+      for (int halving = 0; halving <= (onSphere ? 8 : 0) && !better; ++halving) {
+        W.row(v) = movedTo(p0, moves, z.head(nd), std::ldexp(1.0, -halving)).transpose();
+        better = starWorst() > worst;
       }
-      if (after > worst) {
+      if (better) {
         ++movedNow;
       } else {
         W.row(v) = p0.transpose();
@@ -205,6 +313,133 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
     moved += movedNow;
     if (movedNow == 0 && rings >= 4) break;
     if (movedNow == 0) ++rings, stalled = 0;
+  }
+  return moved;
+}
+
+// Joint max-min moves of small patches, for what the single-vertex sweeps
+// leave: there each vertex's star holds another tet that a move repairing
+// the inverted one would invert (bunny00 on the ball: the sweeps left 2 of
+// 6 tets, the patches all). It is no cure for every configuration: spool's
+// ball-domain final untangling ends with four tets at −10⁻⁸ of their
+// target volume, each with one sphere and three interior vertices, whose
+// patches' linearised optimum is itself about 10⁻⁹: the tets are pinched
+// flat by their surroundings, and the patches drive them towards zero
+// volume from below without making them positive. For
+// each non-positive tet, its movable vertices (level 0), then also every
+// movable vertex of the tets sharing a vertex with it (level 1), move
+// together: the largest t with every tet touching them at normalised
+// volume ≥ t (linearised, each displacement within its vertex's reach, so
+// bilinear terms stay small), t ≤ 1; the step is halved until the true
+// least volume over those tets rises (at most eight times). Repeated while
+// the least volume rises, at most `maxRounds` times over the tets left.
+// Tets outside the patches' stars do not change, and no tet touching a
+// patch falls below the least volume it had. Returns the number of patch
+// moves.
+int patchMaxMin(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::VertexTets& vt,
+                const std::vector<std::uint8_t>& movable, const Eigen::VectorXd& scale, double lo, double hi,
+                int maxRounds) {
+  const Eigen::Index ntx = T.rows();
+  auto volume = [&](Eigen::Index t) { return tetVolume(W, T, t); };
+  int moved = 0;
+  for (int round = 0; round < maxRounds; ++round) {
+    std::vector<Eigen::Index> bad;
+    for (Eigen::Index t = 0; t < ntx; ++t)
+      if (!positiveTet(W, T, t)) bad.push_back(t);
+    if (bad.empty()) break;
+    const int movedBefore = moved;
+    for (const Eigen::Index b : bad) {
+      for (int level = 0; level < 2 && !positiveTet(W, T, b); ++level) {
+        std::vector<int> patch;
+        auto add = [&](int v) {
+          if (movable[static_cast<size_t>(v)] && std::find(patch.begin(), patch.end(), v) == patch.end()) patch.push_back(v);
+        };
+        for (int k = 0; k < 4; ++k) {
+          add(T(b, k));
+          if (level == 0) continue;
+          const int v = T(b, k);
+          if (v == W.rows() - 1) continue;  // the cones' apex touches every boundary vertex
+          for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e)
+            for (int j = 0; j < 4; ++j) add(T(vt.corner[static_cast<size_t>(e)] / 4, j));
+        }
+        if (patch.empty()) continue;
+        // The tets touching the patch, and each patch vertex's first unknown.
+        std::vector<int> tets, column;
+        std::vector<VertexMoves> moves;
+        Eigen::Index nz = 0;
+        for (int v : patch) {
+          moves.push_back(vertexMoves(W, T, vt, v, movable[static_cast<size_t>(v)], lo, hi));
+          withinReach(moves.back());
+          column.push_back(static_cast<int>(nz));
+          nz += moves.back().dirs.cols();
+          for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e)
+            tets.push_back(vt.corner[static_cast<size_t>(e)] / 4);
+        }
+        std::sort(tets.begin(), tets.end());
+        tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+        auto leastVolume = [&] {
+          double least = std::numeric_limits<double>::infinity();
+          for (int t : tets) least = std::min(least, volume(t) / scale(t));
+          return least;
+        };
+        if (nz == 0) continue;
+        for (int iteration = 0; iteration < 20; ++iteration) {
+          const double worst = leastVolume();
+          if (worst > 0 && positiveTet(W, T, b)) break;
+          const auto nt = static_cast<Eigen::Index>(tets.size());
+          Eigen::MatrixXd a = Eigen::MatrixXd::Zero(nt + 1 + 2 * nz, nz + 1);
+          Eigen::VectorXd rhs(a.rows());
+          for (Eigen::Index r = 0; r < nt; ++r) {
+            const int t = tets[static_cast<size_t>(r)];
+            const double s = scale(t);
+            for (int k = 0; k < 4; ++k) {
+              const auto at = std::find(patch.begin(), patch.end(), T(t, k));
+              if (at == patch.end()) continue;
+              const auto p = static_cast<size_t>(at - patch.begin());
+              const Eigen::Vector3d grad = volumeGradient(W, T, t, k);
+              for (Eigen::Index i = 0; i < moves[p].dirs.cols(); ++i) a(r, column[p] + i) = grad.dot(moves[p].dirs.col(i)) / s;
+            }
+            a(r, nz) = -1;
+            rhs(r) = volume(t) / s;
+          }
+          Eigen::Index row = nt;
+          a(row, nz) = -1, rhs(row) = 1, ++row;  // t <= 1
+          for (size_t p = 0; p < patch.size(); ++p)
+            for (Eigen::Index i = 0; i < moves[p].dirs.cols(); ++i) {
+              a(row, column[p] + i) = 1, rhs(row) = moves[p].below(i), ++row;
+              a(row, column[p] + i) = -1, rhs(row) = moves[p].above(i), ++row;
+            }
+          Eigen::VectorXd z = Eigen::VectorXd::Zero(nz + 1);
+          z(nz) = worst - 1;
+          z = maxMinBarrier(a, rhs, z, true, std::clamp(1e-2 * std::abs(worst), 1e-14, 1e-7));
+          if (!(z(nz) > worst)) break;
+          std::vector<Eigen::Vector3d> start;
+          for (int v : patch) start.push_back(W.row(v).transpose());
+          bool better = false;
+          for (int halving = 0; halving <= 8 && !better; ++halving) {
+            for (size_t p = 0; p < patch.size(); ++p)
+              W.row(patch[p]) =
+                  movedTo(start[p], moves[p], z.segment(column[p], moves[p].dirs.cols()), std::ldexp(1.0, -halving)).transpose();
+            better = leastVolume() > worst;
+          }
+          if (!better) {
+            for (size_t p = 0; p < patch.size(); ++p) W.row(patch[p]) = start[p].transpose();
+            break;
+          }
+          ++moved;
+          // The next iteration's directions and reaches are at the new positions.
+          nz = 0;
+          for (size_t p = 0; p < patch.size(); ++p) {
+            moves[p] = vertexMoves(W, T, vt, patch[p], movable[static_cast<size_t>(patch[p])], lo, hi);
+            withinReach(moves[p]);
+            column[p] = static_cast<int>(nz);
+            nz += moves[p].dirs.cols();
+          }
+          if (nz == 0) break;
+        }
+      }
+    }
+    if (moved == movedBefore) break;
   }
   return moved;
 }
@@ -693,9 +928,41 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       tetScale(t) = s > 0 && std::isfinite(s) ? s : (meanTarget > 0 ? meanTarget : 1.0);
     }
     const auto repairStart = std::chrono::steady_clock::now();
-    const int moved = maxMinSweeps(W, T, vt, movable, tetScale, onCube ? 0.0 : -1.0, 1.0, options.localRepairSweeps);
-    const int inverted = moved > 0 ? countNonPositiveTets(W.topRows(nv), T0) : result.invertedAfter;
-    const int flipped = moved > 0 ? countBad(nt, ntx) : result.flippedBoundaryTriangles;
+    // The sweeps of single moves; their result is the start of the later
+    // passes even when it counts more inversions (no move lowers its star's
+    // least volume). The whole is kept only when it leaves fewer (below).
+    const double lo = onCube ? 0.0 : -1.0;
+    int moved = maxMinSweeps(W, T, vt, movable, tetScale, lo, 1.0, options.localRepairSweeps);
+    int inverted = moved > 0 ? countNonPositiveTets(W.topRows(nv), T0) : result.invertedAfter;
+    int flipped = moved > 0 ? countBad(nt, ntx) : result.flippedBoundaryTriangles;
+    // Each later pass is kept only when it leaves fewer than before it.
+    auto pass = [&](auto&& run) {
+      const Eigen::MatrixX3d kept = W;
+      const int movedNow = run();
+      const int invertedNow = movedNow > 0 ? countNonPositiveTets(W.topRows(nv), T0) : inverted;
+      const int flippedNow = movedNow > 0 ? countBad(nt, ntx) : flipped;
+      if (invertedNow + flippedNow < inverted + flipped) {
+        moved += movedNow, inverted = invertedNow, flipped = flippedNow;
+      } else {
+        W = kept;
+      }
+    };
+    // On the sphere, what the interior moves left gets a second pass in
+    // which the sliding sphere vertices move too (tangent moves, projected):
+    // folds of the boundary surface on the sphere (no interior move repairs
+    // a flipped triangle's cone). A second pass, not one with every vertex,
+    // so that what the first repairs stays as it was.
+    const bool anySphere = std::any_of(slide.begin(), slide.end(), [](char c) { return c == kSphere; });
+    if (inverted + flipped > 0 && anySphere) {
+      for (Eigen::Index v = 0; v < nv; ++v)
+        if (!fixed[v] && slide[v] == kSphere) movable[v] = kMoveOnSphere;
+      pass([&] { return maxMinSweeps(W, T, vt, movable, tetScale, lo, 1.0, options.localRepairSweeps); });
+    }
+    // Then joint moves of the patches around what is left, where every
+    // single move is blocked, when that is a few (each tet's patch problem
+    // is dense: a 3×3×3 grid tangled with 20 left takes about 0.2 s).
+    if (inverted + flipped > 0 && inverted + flipped <= kPatchRepairAtMost && options.localRepairPatches)
+      pass([&] { return patchMaxMin(W, T, vt, movable, tetScale, lo, 1.0, 10); });
     if (options.progress &&
         !options.progress(-1, "untangle: local max-min repair: " + std::to_string(moved) + " vertex moves, " +
                                   std::to_string(left) + " -> " + std::to_string(inverted + flipped) +

@@ -179,7 +179,12 @@ struct ParamOptions {
   /// the morph (whose cube start fails there); with the transport's later
   /// last bits, 53 left after the local repair, two rounds (55 -> 2 -> 0,
   /// 5 s) make it valid, where one left 2 and the morph took 931 s. The
-  /// rounds are the cube's only: on the ball the morph takes what is left.
+  /// ball gets the same rounds (without the edges), now that the local
+  /// repair also slides sphere vertices and moves patches jointly
+  /// (untangle.h localRepairSweeps): bunny00 on the ball spends its budget
+  /// with 6 left, 2 after the repair, and two rounds take them to 0
+  /// (param 421 s, no morph). spool on the ball still ends with 3 tets the
+  /// rounds cannot repair, and the morph takes them.
   double finalUntangleWork = 3000;
   bool splitChords = true;             ///< step 1 (required for the cube)
   ProgressCallback progress = {};      ///< fraction over the whole stage; false stops
@@ -228,7 +233,7 @@ struct ParamResult {
     double volumeRatioMin = 0, volumeRatioMax = 0;
     int cornerVertices = 0, edgeVertices = 0;  ///< cube: boundary vertices put on corners / edges
     int flippedBoundaryTriangles = 0;  ///< exact, boundary triangles flipped on ∂Ω (seen from its centre)
-    int finishingRounds = 0;           ///< cube: ε rounds after the final untangling's budget was spent, each leaving fewer
+    int finishingRounds = 0;           ///< ε rounds after the final untangling's budget was spent, each leaving fewer
     bool morphed = false;              ///< the final map is the ball map morphed towards the untangler's result
     double morphDistance = 0;          ///< then: rms of |U − target| per vertex, in target edges (barrier_morph.h)
     double morphMaxDistance = 0;       ///< and its largest

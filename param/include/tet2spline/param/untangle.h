@@ -137,10 +137,27 @@ struct UntangleOptions {
   bool relax = false;
   /// When the energy leaves inversions: sweeps of local max-min moves over
   /// the vertices of inverted tets (see untangle.cpp, maxMinSweeps); 0 = none.
+  /// Interior and cube-face vertices move first; with sphereFaces, a second
+  /// pass over what that leaves moves the sliding sphere vertices too
+  /// (along the tangent plane, projected back onto the sphere). Then, with
+  /// localRepairPatches (off by default; parameterize turns it on for the
+  /// ball's final untangling) and at most 100 left, joint max-min moves of the
+  /// vertices of each tet left (and then of its neighbours' too), for the
+  /// configurations where every single move is blocked by another tet of
+  /// the vertex's star (untangle.cpp, patchMaxMin). Each pass after the
+  /// first is kept only when it leaves fewer inverted tets and flipped
+  /// triangles, and the repair as a whole only when it leaves fewer than the
+  /// energy did. Measured on the ball's final untangling (parameterize.h,
+  /// finalUntangleWork): bunny00 (767k tets) with the patch moves spent its
+  /// budget with 6 left, and the repair and two finishing rounds took them
+  /// 6 -> 2 -> 1 -> 0 (param 421 s, no morph); without the patch moves the
+  /// rounds stopped at 2 and the morph took over. On bunny00's cube map
+  /// they turned a valid end (55 -> 2 -> 0) into one that stopped at 1.
   /// Only when at most max(100, localRepairFraction · #tets) tets are left
   /// inverted or boundary triangles flipped (many more: the run fails anyway,
   /// and the moves would take minutes).
   int localRepairSweeps = 100;
+  bool localRepairPatches = false;
   double localRepairFraction = 0.02;
   /// Work budget: the run ends (failed, budgetExhausted) after the ε update
   /// in which the energy's tet evaluations (counting each evaluation of a
