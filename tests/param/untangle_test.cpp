@@ -19,6 +19,14 @@ std::vector<bool> boundaryMask(const TetMesh& m) {
   return fixed;
 }
 
+// Per vertex: whether it is a corner of one of `faces`.
+std::vector<bool> onFaces(const Eigen::MatrixX3i& faces, Eigen::Index numVertices) {
+  std::vector<bool> on(static_cast<size_t>(numVertices), false);
+  for (Eigen::Index f = 0; f < faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) on[static_cast<size_t>(faces(f, k))] = true;
+  return on;
+}
+
 }  // namespace
 
 // Every method must untangle; the tests that say so run with both.
@@ -424,9 +432,7 @@ TEST(UntangleEnergy, AnalyticEigensystemGivesTheProjectedHessian) {
 TEST_P(UntangleMethods, BoundarySlidesOnTheSphereAndNothingFlips) {
   const TetMesh m = t2stest::ballGrid(6);
   const Eigen::MatrixX3i faces = boundaryFaces(m);
-  std::vector<bool> onSphere(static_cast<size_t>(m.V.rows()), false);
-  for (Eigen::Index f = 0; f < faces.rows(); ++f)
-    for (int k = 0; k < 3; ++k) onSphere[static_cast<size_t>(faces(f, k))] = true;
+  const std::vector<bool> onSphere = onFaces(faces, m.V.rows());
   Eigen::MatrixX3d U = m.V;
   std::mt19937 rng(13);
   std::uniform_real_distribution<double> jitter(-0.3, 0.3);  // edges about 1/3 on the sphere
@@ -530,9 +536,7 @@ TEST(UntangleLocalRepair, MaxMinMovesKeepFaceVerticesOnTheirFaces) {
 TEST(UntangleLocalRepair, MaxMinMovesSlideSphereVertices) {
   const TetMesh m = t2stest::ballGrid(6);
   const Eigen::MatrixX3i faces = boundaryFaces(m);
-  std::vector<bool> onSphere(static_cast<size_t>(m.V.rows()), false);
-  for (Eigen::Index f = 0; f < faces.rows(); ++f)
-    for (int k = 0; k < 3; ++k) onSphere[static_cast<size_t>(faces(f, k))] = true;
+  const std::vector<bool> onSphere = onFaces(faces, m.V.rows());
   Eigen::Index top = 0;  // the vertex at (0, 0, 1)
   for (Eigen::Index v = 0; v < m.V.rows(); ++v)
     if ((m.V.row(v) - Eigen::RowVector3d(0, 0, 1)).norm() < (m.V.row(top) - Eigen::RowVector3d(0, 0, 1)).norm()) top = v;
