@@ -85,6 +85,17 @@
 //   not met; the solve (400–1000 Jacobi-CG iterations at 1e-9 after the
 //   damped start) and the 17 extra diagrams of failed trial steps are what
 //   is left.
+// Measured 2026-12-05 (CG preconditioned by an aggregation AMG W-cycle,
+// aggregation_amg.h; machine otherwise idle, one run each):
+//   bunny00's cube problem (--points): --solver amg 39.8 s (linear solve
+//   7.6 s, 7–27 CG iterations a system; --solver cg 60.7 s, solve 28.5 s,
+//   400–1000), the same 23 iterations and 40 diagrams; the default (Jacobi,
+//   the AMG once a system takes more than 200 iterations: here from the
+//   first) 35.4 s, solve 7.0 s, 313 MiB.
+//   Uniform points, linear solve amg / cg: 30k 0.27 / 0.16 s, 100k 1.5 /
+//   0.94 s, 181k 2.1 / 1.9 s (totals 11.2 / 12.2 s): on even cells Jacobi's
+//   60–160 iterations cost less than the cycle's set-up, and the default
+//   keeps Jacobi there.
 #include <sys/resource.h>
 
 #include <chrono>
@@ -105,7 +116,7 @@ using namespace tet2spline;
 namespace {
 void usage() {
   std::fprintf(stderr,
-               "usage: tet2spline_ot_bench [--n N[,N...]] [--solver cg|ic|cholmod] [--cg-tol T] [--start scaled|zero]\n"
+               "usage: tet2spline_ot_bench [--n N[,N...]] [--solver auto|amg|cg|ic|cholmod] [--cg-tol T] [--start scaled|zero]\n"
                "                           [--domain cube|ball] [--seed S] [--points FILE]\n"
                "  default --n 10000,100000,181000; --points reads a point set in the format of\n"
                "  'tet2spline transport' (first line N, then x y z mass per line) instead\n");
@@ -139,9 +150,15 @@ int main(int argc, char** argv) {
       ++a;
     } else if (arg == "--solver" && value) {
       const std::string s = value;
-      options.linearSolver = s == "cholmod" ? OtLinearSolver::Cholmod
-                             : s == "ic"    ? OtLinearSolver::IncompleteCholeskyCG
-                                            : OtLinearSolver::ConjugateGradient;
+      if (s == "auto") options.linearSolver = OtLinearSolver::JacobiThenAmgCG;
+      else if (s == "amg") options.linearSolver = OtLinearSolver::AggregationAmgCG;
+      else if (s == "cg") options.linearSolver = OtLinearSolver::ConjugateGradient;
+      else if (s == "ic") options.linearSolver = OtLinearSolver::IncompleteCholeskyCG;
+      else if (s == "cholmod") options.linearSolver = OtLinearSolver::Cholmod;
+      else {
+        std::fprintf(stderr, "tet2spline_ot_bench: unknown --solver '%s' (auto, amg, cg, ic or cholmod)\n", value);
+        return 2;
+      }
       ++a;
     } else if (arg == "--cg-tol" && value) {
       options.cgTolerance = std::atof(value);
@@ -204,14 +221,14 @@ int main(int argc, char** argv) {
       std::printf("  %s\n", r.status.message.c_str());
       status = 1;
     }
-    std::printf("  %4s %9s %5s %8s %8s %6s %8s %8s %8s %8s %10s\n", "it", "step", "evals", "repaired", "flips", "cg",
-                "triang", "clip", "assemble", "solve", "rel.err");
+    std::printf("  %4s %9s %5s %8s %8s %6s %8s %8s %8s %8s %10s   (cg: * = AMG-preconditioned)\n", "it", "step",
+                "evals", "repaired", "flips", "cg", "triang", "clip", "assemble", "solve", "rel.err");
     double sums[4] = {0, 0, 0, 0};
     for (std::size_t k = 0; k < r.iterationStats.size(); ++k) {
       const OtIterationStats& s = r.iterationStats[k];
-      std::printf("  %4zu %9.3g %5d %8d %8ld %6d %8.3f %8.3f %8.3f %8.3f %10.3g\n", k + 1, s.stepSize, s.evaluations,
-                  s.repairedDiagrams, s.flips, s.linearIterations, s.triangulationSeconds, s.clippingSeconds, s.assemblySeconds,
-                  s.linearSolveSeconds, s.maxRelativeMassError);
+      std::printf("  %4zu %9.3g %5d %8d %8ld %5d%c %8.3f %8.3f %8.3f %8.3f %10.3g\n", k + 1, s.stepSize, s.evaluations,
+                  s.repairedDiagrams, s.flips, s.linearIterations, s.amg ? '*' : ' ', s.triangulationSeconds,
+                  s.clippingSeconds, s.assemblySeconds, s.linearSolveSeconds, s.maxRelativeMassError);
       sums[0] += s.triangulationSeconds;
       sums[1] += s.clippingSeconds;
       sums[2] += s.assemblySeconds;

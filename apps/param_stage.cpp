@@ -92,6 +92,7 @@ void addParamReport(json& j, const ParamResult& r) {
     setPath(j, "ot.merged_points", r.ot.mergedPoints);
     setPath(j, "ot.solver_switches", r.ot.solverSwitches);
     setPath(j, "ot.linear_solver", r.ot.linearSolver);
+    setPath(j, "ot.amg_iterations", r.ot.amgIterations);
   }
   setPath(j, "param.inverted_tets_before_untangling", r.param.invertedTetsBeforeUntangling);
   setPath(j, "param.finishing_rounds", r.param.finishingRounds);

@@ -2,6 +2,8 @@
 // Thibert, JEMS 2019), on top of power_diagram.cpp.
 #include "tet2spline/param/optimal_transport.h"
 
+#include "aggregation_amg.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -76,11 +78,9 @@ SpMat groundedLaplacian(const Eigen::MatrixX3d& y, const PowerDiagram& pd, int g
   return L;
 }
 
-// Jacobi-preconditioned conjugate gradients with TBB matrix-vector products
-// (L is symmetric, so its column-major storage is also its row-major one),
-// from the start x (#n) to ‖b − Lx‖ ≤ tolerance·‖b‖.
-int jacobiCg(const SpMat& L, const Eigen::VectorXd& b, Eigen::VectorXd& x, double tolerance, int maxIterations) {
-  const int n = static_cast<int>(b.size());
+// The diagonal's inverse (1 where it is not positive).
+Eigen::VectorXd inverseDiagonal(const SpMat& L) {
+  const int n = static_cast<int>(L.rows());
   const int* outer = L.outerIndexPtr();
   const int* inner = L.innerIndexPtr();
   const double* value = L.valuePtr();
@@ -91,6 +91,21 @@ int jacobiCg(const SpMat& L, const Eigen::VectorXd& b, Eigen::VectorXd& x, doubl
       if (inner[k] == i) d = value[k];
     invDiag[i] = d > 0 ? 1.0 / d : 1.0;
   });
+  return invDiag;
+}
+
+// Preconditioned conjugate gradients with TBB matrix-vector products (L is
+// symmetric, so its column-major storage is also its row-major one), from
+// the start x (#n) to ‖b − Lx‖ ≤ tolerance·‖b‖; precondition(r, z) sets
+// z = M r for a symmetric positive (semi-)definite M.
+template <class Precondition>
+int preconditionedCg(const SpMat& L, const Eigen::VectorXd& b, Eigen::VectorXd& x, double tolerance,
+                     int maxIterations, Precondition&& precondition, bool* converged = nullptr) {
+  if (converged) *converged = true;
+  const int n = static_cast<int>(b.size());
+  const int* outer = L.outerIndexPtr();
+  const int* inner = L.innerIndexPtr();
+  const double* value = L.valuePtr();
   auto multiply = [&](const Eigen::VectorXd& v, Eigen::VectorXd& out) {
     tbb::parallel_for(tbb::blocked_range<int>(0, n, 4096), [&](const tbb::blocked_range<int>& r) {
       for (int i = r.begin(); i != r.end(); ++i) {
@@ -119,24 +134,28 @@ int jacobiCg(const SpMat& L, const Eigen::VectorXd& b, Eigen::VectorXd& x, doubl
   multiply(x, q);
   r = b - q;
   if (std::sqrt(dot(r, r)) <= tolerance * bNorm) return 0;
-  z = invDiag.cwiseProduct(r);
+  precondition(r, z);
   p = z;
   double rz = dot(r, z);
   int it = 0;
-  for (; it < maxIterations; ++it) {
+  if (converged) *converged = false;
+  for (; it < maxIterations && rz > 0; ++it) {  // (rz, pq ≤ 0 or NaN: breakdown, not converged)
     multiply(p, q);
-    const double alpha = rz / dot(p, q);
+    const double pq = dot(p, q);
+    if (!(pq > 0)) break;
+    const double alpha = rz / pq;
     tbb::parallel_for(tbb::blocked_range<int>(0, n, 8192), [&](const tbb::blocked_range<int>& rg) {
       for (int i = rg.begin(); i != rg.end(); ++i) {
         x[i] += alpha * p[i];
         r[i] -= alpha * q[i];
-        z[i] = invDiag[i] * r[i];
       }
     });
     if (std::sqrt(dot(r, r)) <= tolerance * bNorm) {
       ++it;
+      if (converged) *converged = true;
       break;
     }
+    precondition(r, z);
     const double rzNew = dot(r, z);
     const double beta = rzNew / rz;
     rz = rzNew;
@@ -152,6 +171,11 @@ void twoSum(double a, double b, double& head, double& tail) {
   head = a + b;
   const double bVirtual = head - a;
   tail = (a - (head - bVirtual)) + (b - bVirtual);
+}
+
+bool isIterative(OtLinearSolver s) {
+  return s == OtLinearSolver::JacobiThenAmgCG || s == OtLinearSolver::ConjugateGradient ||
+         s == OtLinearSolver::AggregationAmgCG;
 }
 
 std::string describePoint(const Eigen::MatrixX3d& points, int i) {
@@ -303,6 +327,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
   bool relativeMerit = false;
   auto merit = [&](const Eigen::VectorXd& grad) { return relativeMerit ? grad.cwiseQuotient(nu).norm() : grad.norm(); };
   Eigen::VectorXd lastDirection;  // the last accepted step's direction (CG's start), empty when none
+  bool amgFromNowOn = false;      // JacobiThenAmgCG: a system took more than jacobiIterationsAtMost
   while (error >= options.maxRelativeMassError) {
     if (iteration >= options.maxNewtonIterations) {
       std::ostringstream msg;
@@ -318,7 +343,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     // for the whole gradient. (Grounding one ψ instead would leave that row's
     // residual, minus the sum of all the others, unbounded for an inexact
     // solve.) The Cholesky-based solvers need the grounded, definite matrix.
-    const bool iterative = solver == OtLinearSolver::ConjugateGradient;
+    const bool iterative = isIterative(solver);
     const SpMat L = groundedLaplacian(y, pd, iterative ? -1 : ground);
     stats.assemblySeconds = secondsSince(t0);
     t0 = Clock::now();
@@ -327,7 +352,9 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     else rhs[ground] = 0;
     bool solved = true;
     switch (solver) {
+      case OtLinearSolver::JacobiThenAmgCG:
       case OtLinearSolver::ConjugateGradient:
+      case OtLinearSolver::AggregationAmgCG: {
         // Inexact Newton with a fixed relative residual: a looser, adaptive
         // forcing term (0.1·error) was tried and stalled the damped phase on
         // the benchmark (cells near ε0 pushed below it by the residual).
@@ -338,8 +365,31 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
         // switch of solver, it starts from 0.
         if (lastDirection.size() == n) d = (1 - lastStep) * lastDirection;
         else d.setZero(n);
-        stats.linearIterations = jacobiCg(L, rhs, d, cgTolerance, options.cgMaxIterations);
+        const bool adaptive = solver == OtLinearSolver::JacobiThenAmgCG;
+        bool amg = solver == OtLinearSolver::AggregationAmgCG || (adaptive && amgFromNowOn);
+        if (!amg) {
+          const Eigen::VectorXd invDiag = inverseDiagonal(L);
+          bool converged = false;
+          stats.linearIterations = preconditionedCg(
+              L, rhs, d, cgTolerance,
+              adaptive ? std::min(options.jacobiIterationsAtMost, options.cgMaxIterations) : options.cgMaxIterations,
+              [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+                tbb::parallel_for(tbb::blocked_range<int>(0, n, 8192), [&](const tbb::blocked_range<int>& rg) {
+                  for (int i = rg.begin(); i != rg.end(); ++i) z[i] = invDiag[i] * r[i];
+                });
+              },
+              &converged);
+          if (adaptive && !converged) amg = amgFromNowOn = true, ++result.solverSwitches;
+        }
+        if (amg) {  // (from Jacobi's iterate, if it ran)
+          const detail::AggregationAmg cycle(L);
+          stats.linearIterations +=
+              preconditionedCg(L, rhs, d, cgTolerance, std::max(1, options.cgMaxIterations - stats.linearIterations),
+                               [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { cycle.apply(r, z); });
+          stats.amg = true;
+        }
         break;
+      }
       case OtLinearSolver::IncompleteCholeskyCG: {
         Eigen::ConjugateGradient<SpMat, Eigen::Lower | Eigen::Upper, Eigen::IncompleteCholesky<double>> cg;
         cg.setTolerance(options.cgTolerance);
@@ -468,10 +518,10 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     }
     error = relativeError(g);
     lastStep = step;
-    if (solver == OtLinearSolver::ConjugateGradient && step < 1) lastDirection = d;
+    if (isIterative(solver) && step < 1) lastDirection = d;
     else lastDirection.resize(0);
     growth = passing == e0 ? 4 : 2;
-    if (solver == OtLinearSolver::ConjugateGradient && step < 1.0 / 16 && cgTolerance > 1e-9) {
+    if (isIterative(solver) && step < 1.0 / 16 && cgTolerance > 1e-9) {
       cgTolerance = std::max(1e-9, 0.01 * cgTolerance);
       ++result.solverSwitches;
     }

@@ -612,8 +612,11 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         r.ot.clippingSeconds += s.clippingSeconds;
         r.ot.assemblySeconds += s.assemblySeconds;
         r.ot.linearSolveSeconds += s.linearSolveSeconds;
+        r.ot.amgIterations += s.amg;
       }
       switch (ot.linearSolver) {
+        case OtLinearSolver::JacobiThenAmgCG: r.ot.linearSolver = "jacobi-then-amg-cg"; break;
+        case OtLinearSolver::AggregationAmgCG: r.ot.linearSolver = "amg-cg"; break;
         case OtLinearSolver::ConjugateGradient: r.ot.linearSolver = "jacobi-cg"; break;
         case OtLinearSolver::IncompleteCholeskyCG: r.ot.linearSolver = "ichol-cg"; break;
         case OtLinearSolver::Cholmod: r.ot.linearSolver = "cholmod"; break;

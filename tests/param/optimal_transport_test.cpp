@@ -188,13 +188,15 @@ TEST(OptimalTransport, LinearSolversAgree) {
   options.maxRelativeMassError = 1e-9;
   std::vector<Eigen::VectorXd> volumes;
   for (OtLinearSolver s : {OtLinearSolver::ConjugateGradient, OtLinearSolver::IncompleteCholeskyCG,
-                           OtLinearSolver::Cholmod}) {
+                           OtLinearSolver::Cholmod, OtLinearSolver::AggregationAmgCG, OtLinearSolver::JacobiThenAmgCG}) {
     options.linearSolver = s;
     const auto r = solveOptimalTransport(y, nu, Domain::unitCube(), options);
     expectSolved(r, Domain::unitCube(), 1e-9);
     volumes.push_back(r.cellVolumes);
   }
   EXPECT_LT((volumes[0] - volumes[2]).cwiseAbs().maxCoeff(), 1e-9 * volumes[2].maxCoeff());
+  EXPECT_LT((volumes[3] - volumes[2]).cwiseAbs().maxCoeff(), 1e-9 * volumes[2].maxCoeff());
+  EXPECT_LT((volumes[4] - volumes[2]).cwiseAbs().maxCoeff(), 1e-9 * volumes[2].maxCoeff());
 }
 
 TEST(OptimalTransport, BallDomain) {

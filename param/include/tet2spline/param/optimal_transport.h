@@ -51,7 +51,18 @@
 /// changes every iteration; IC's triangular solves are sequential. Jacobi-CG
 /// on the singular L = −H with mean-free right-hand side (instead of a
 /// grounded ψ_0) then halved the CG iterations again (~50–60 at 10k, see
-/// the benchmark output). Hence the default `ConjugateGradient`.
+/// the benchmark output). But on real inputs the cells' sizes span orders of
+/// magnitude, and so do L's entries: bunny00's cube problem (181k sites,
+/// masses 7e-9 .. 2e-5) needed 400–1000 Jacobi-CG iterations per Newton
+/// step, 28.5 s of its 60.7 s. CG preconditioned by one W-cycle of an
+/// aggregation AMG (aggregation_amg.h, built anew for each system) needs
+/// 7–27 there, and the solves take 7.6 s (total 39.8 s, the same Newton
+/// steps). On even cells Jacobi stays cheaper (the benchmark's uniform
+/// points, linear solve with AMG against Jacobi: 30k 0.27 against 0.16 s,
+/// 100k 1.5 against 0.94 s, 181k 2.1 against 1.9 s; its 64–159 iterations a
+/// system cost less than the cycle's set-up). Hence the default
+/// `JacobiThenAmgCG`: Jacobi, and AMG once a system has taken more than
+/// jacobiIterationsAtMost = 200 iterations.
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
@@ -65,10 +76,18 @@
 namespace tet2spline {
 
 enum class OtLinearSolver {
-  /// Conjugate gradients (parallel matrix-vector products) preconditioned by
-  /// the diagonal on the singular system with mean-free right-hand side,
-  /// stopped at a relative residual `cgTolerance`: inexact Newton. Default.
+  /// Conjugate gradients (parallel matrix-vector products) on the singular
+  /// system with mean-free right-hand side, preconditioned by the diagonal
+  /// (Jacobi), stopped at a relative residual `cgTolerance`: inexact Newton.
+  /// When a system has taken `jacobiIterationsAtMost` iterations, CG
+  /// preconditioned by the AMG cycle (AggregationAmgCG) finishes it from
+  /// there, and the later systems use that from the start. Default.
+  JacobiThenAmgCG,
+  /// The same CG preconditioned by the diagonal only.
   ConjugateGradient,
+  /// The same CG preconditioned by one W-cycle of an aggregation algebraic
+  /// multigrid (built for every system) only.
+  AggregationAmgCG,
   /// Eigen's incomplete Cholesky preconditioner (sequential) with CG, on the
   /// system grounded at ψ_0 (for comparison).
   IncompleteCholeskyCG,
@@ -86,12 +105,15 @@ struct OptimalTransportOptions {
   int maxNewtonIterations = 100;
   int maxStepHalvings = 40;            ///< line search gives up below step 2^-maxStepHalvings
   OtStart start = OtStart::ScaledVoronoi;
-  OtLinearSolver linearSolver = OtLinearSolver::ConjugateGradient;
+  OtLinearSolver linearSolver = OtLinearSolver::JacobiThenAmgCG;
   /// Relative residual of the inexact Newton direction. Fixed, not adaptive:
   /// a forcing term 0.1·error stalled the damped phase of the benchmark
   /// (the residual pushed cells near ε0 below it).
   double cgTolerance = 1e-3;
   int cgMaxIterations = 20000;
+  /// JacobiThenAmgCG: Jacobi-CG iterations a system may take before the AMG
+  /// takes over (even cells: 60–160 at 181k sites; bunny00's: 400–1000).
+  int jacobiIterationsAtMost = 200;
   /// Points at exactly the same position share one cell (their masses are
   /// added; each gets the cell's ψ and centroid and a volume share in
   /// proportion to its mass). When false, coincident points throw Error(Input).
@@ -106,6 +128,7 @@ struct OtIterationStats {
   int repairedDiagrams = 0;            ///< of those, triangulations repaired by flips (the rest CGAL's)
   long flips = 0;                      ///< flips, also of repairs given up
   int linearIterations = 0;            ///< CG iterations (0 for Cholesky)
+  bool amg = false;                    ///< CG preconditioned by the AMG cycle (all or some of them)
   double triangulationSeconds = 0;     ///< regular triangulations of this iteration
   double clippingSeconds = 0;          ///< clipping of this iteration
   double assemblySeconds = 0;          ///< Hessian assembly
@@ -124,7 +147,7 @@ struct OptimalTransportResult {
   std::vector<OtIterationStats> iterationStats;
   double startSeconds = 0;             ///< validation, merging and the diagram of ψ0
   int mergedPoints = 0;                ///< points merged into a coincident one
-  int solverSwitches = 0;              ///< CG tolerance tightenings, switches to CHOLMOD, to the relative merit and to ψ in two doubles (see the .cpp)
+  int solverSwitches = 0;              ///< CG tolerance tightenings, switches to the AMG, to CHOLMOD, to the relative merit and to ψ in two doubles (see the .cpp)
   Status status;                       ///< ok, or why it stopped
 };
 

@@ -221,7 +221,8 @@ struct ParamResult {
     double maxRelativeMassError = 0;
     std::vector<double> stepSizes;
     int mergedPoints = 0;
-    int solverSwitches = 0;             ///< CG tightenings, switches to CHOLMOD and to the relative merit (optimal_transport.h)
+    int solverSwitches = 0;             ///< CG tightenings, switches to the AMG, to CHOLMOD and to the relative merit (optimal_transport.h)
+    int amgIterations = 0;              ///< Newton iterations whose system was solved with the AMG cycle
     double triangulationSeconds = 0, clippingSeconds = 0, assemblySeconds = 0, linearSolveSeconds = 0;
     std::string linearSolver;
   } ot;
