@@ -78,6 +78,8 @@ class CornerTerms {
   void set(int t, const Eigen::Matrix<double, 3, 4>& columns) {
     for (int k = 0; k < 4; ++k) term_[static_cast<size_t>(slot_[4 * static_cast<size_t>(t) + k])] = columns.col(k);
   }
+  /// The term of tet t's corner k (three doubles).
+  double* term(int t, int k) { return term_[static_cast<size_t>(slot_[4 * static_cast<size_t>(t) + k])].data(); }
   /// Adds vertex v's terms to s, in vt's order (every tet of v must be set).
   void addTo(int v, Eigen::Vector3d& s) const {
     for (int e = vt_.offset[static_cast<size_t>(v)]; e < vt_.offset[static_cast<size_t>(v) + 1]; ++e)
