@@ -13,6 +13,10 @@ namespace {
 
 // Levels with fewer rows run their sweeps on one core.
 constexpr int kParallelFrom = 20000;
+// The coarsest level is solved densely up to this many rows (when the
+// coarsening stalls above coarsestSize), else by kStalledSweeps Jacobi sweeps.
+constexpr int kDenseAtMost = 3000;
+constexpr int kStalledSweeps = 20;
 
 template <class F>
 void forRows(int n, F&& f) {
@@ -26,32 +30,24 @@ void forRows(int n, F&& f) {
 }
 
 // One pass of pairwise matching: each node, in order, is paired with its
-// strongest unpaired strong neighbour (the most negative a_ij with
-// −a_ij ≥ strength · max_k (−a_ik)), or left alone. row(i, visit) calls
-// visit(j, a_ij) for the entries of row i. Returns the number of groups;
-// `group` maps node -> its group.
+// strongest unpaired neighbour (the most negative a_ij), or left alone.
+// (Notay pairs only with "strong" neighbours, −a_ij ≥ β max_k (−a_ik); on
+// coarse levels those are often taken, and with them only the levels of
+// bunny00's transport stopped shrinking at a few thousand nodes.)
+// row(i, visit) calls visit(j, a_ij) for the entries of row i. Returns the
+// number of groups; `group` maps node -> its group.
 template <class Row>
-int pairwiseMatching(int n, Row&& row, double strength, std::vector<int>& group) {
+int pairwiseMatching(int n, Row&& row, std::vector<int>& group) {
   group.assign(static_cast<size_t>(n), -1);
   int groups = 0;
   for (int i = 0; i < n; ++i) {
     if (group[i] >= 0) continue;
-    double strongest = 0;
+    int best = -1;
+    double bestValue = 0;
     row(i, [&](int j, double a) {
-      if (j != i) strongest = std::max(strongest, -a);
+      if (j == i || group[j] >= 0 || !(a < 0)) return;
+      if (best < 0 || a < bestValue) best = j, bestValue = a;
     });
-    // The strongest unpaired strong neighbour, else the strongest unpaired
-    // one (on coarse levels the strong neighbours are often taken: with
-    // strong ones only, the levels stopped shrinking at a few thousand).
-    int best = -1, fallback = -1;
-    double bestValue = 0, fallbackValue = 0;
-    if (strongest > 0)
-      row(i, [&](int j, double a) {
-        if (j == i || group[j] >= 0 || !(a < 0)) return;
-        if (fallback < 0 || a < fallbackValue) fallback = j, fallbackValue = a;
-        if (-a >= strength * strongest && (best < 0 || a < bestValue)) best = j, bestValue = a;
-      });
-    if (best < 0) best = fallback;
     group[i] = groups;
     if (best >= 0) group[best] = groups;
     ++groups;
@@ -89,11 +85,14 @@ int pairwiseMatching(int n, Row&& row, double strength, std::vector<int>& group)
 }  // namespace
 
 AggregationAmg::AggregationAmg(const Eigen::SparseMatrix<double>& A, const Options& options) : options_(options) {
+  Eigen::SparseMatrix<double> copy;  // (only if A is not in compressed storage)
+  if (!A.isCompressed()) copy = A, copy.makeCompressed();
+  const Eigen::SparseMatrix<double>& S = A.isCompressed() ? A : copy;
   Level fine;
-  fine.A.n = static_cast<int>(A.rows());
-  fine.A.start.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
-  fine.A.col.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
-  fine.A.value.assign(A.valuePtr(), A.valuePtr() + A.nonZeros());
+  fine.A.n = static_cast<int>(S.rows());
+  fine.A.start.assign(S.outerIndexPtr(), S.outerIndexPtr() + S.outerSize() + 1);
+  fine.A.col.assign(S.innerIndexPtr(), S.innerIndexPtr() + S.nonZeros());
+  fine.A.value.assign(S.valuePtr(), S.valuePtr() + S.nonZeros());
   levels_.push_back(std::move(fine));
   for (;;) {
     Level& level = levels_.back();
@@ -110,7 +109,7 @@ AggregationAmg::AggregationAmg(const Eigen::SparseMatrix<double>& A, const Optio
         M.n, [&](int i, auto&& visit) {
           for (int k = M.start[i]; k < M.start[i + 1]; ++k) visit(M.col[k], M.value[k]);
         },
-        options_.strength, first);
+        first);
     // Rows of the pair matrix: the members of each pair.
     std::vector<int> memberStart(static_cast<size_t>(n1) + 1, 0), members(static_cast<size_t>(M.n));
     for (int i = 0; i < M.n; ++i) ++memberStart[first[i] + 1];
@@ -136,7 +135,7 @@ AggregationAmg::AggregationAmg(const Eigen::SparseMatrix<double>& A, const Optio
       for (int q : touched) seen[q] = 0;
     };
     std::vector<int> second;
-    const int n2 = pairwiseMatching(n1, pairRow, options_.strength, second);
+    const int n2 = pairwiseMatching(n1, pairRow, second);
     if (n2 > M.n * 0.9) break;  // no longer coarsening: solve here
     level.aggregate.resize(static_cast<size_t>(M.n));
     for (int i = 0; i < M.n; ++i) level.aggregate[i] = second[first[i]];
@@ -172,8 +171,10 @@ AggregationAmg::AggregationAmg(const Eigen::SparseMatrix<double>& A, const Optio
     levels_.push_back(std::move(coarse));
   }
   // The coarsest level: a dense pseudo-inverse (its matrix is singular when
-  // the finest one is, with the constants as null space).
+  // the finest one is, with the constants as null space); Jacobi sweeps
+  // instead if the coarsening stalled above kDenseAtMost rows.
   const Csr& C = levels_.back().A;
+  if (C.n > kDenseAtMost) return;
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(C.n, C.n);
   for (int i = 0; i < C.n; ++i)
     for (int k = C.start[i]; k < C.start[i + 1]; ++k) dense(i, C.col[k]) += C.value[k];
@@ -206,7 +207,8 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
 void AggregationAmg::cycle(size_t l, const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
   const Level& level = levels_[l];
   const int n = level.A.n;
-  if (l + 1 == levels_.size()) {
+  const bool coarsest = l + 1 == levels_.size();
+  if (coarsest && coarsestInverse_.size() > 0) {
     x = coarsestInverse_ * b;
     return;
   }
@@ -218,6 +220,10 @@ void AggregationAmg::cycle(size_t l, const Eigen::VectorXd& b, Eigen::VectorXd& 
   };
   x.resize(n);
   forRows(n, [&](int i) { x[i] = w * level.invDiag[i] * b[i]; });
+  if (coarsest) {  // (the coarsening stalled: no dense solve)
+    for (int s = 1; s < kStalledSweeps; ++s) smooth();
+    return;
+  }
   for (int s = 1; s < options_.sweeps; ++s) smooth();
   // The residual, restricted; the coarse problem visited coarseVisits
   // times, each on what the corrections before it left.

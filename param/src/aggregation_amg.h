@@ -6,15 +6,16 @@
 //
 // Coarsening after Notay ("An aggregation-based algebraic multigrid method",
 // ETNA 2010): each level pairs every node with its strongest unpaired
-// neighbour, twice, so aggregates hold up to four nodes; the coarse matrix
-// is the Galerkin product with the piecewise-constant prolongation (the sum
-// of the entries between two aggregates), which keeps the zero row sums.
+// neighbour, twice (a node left single joins its strongest neighbour's
+// group), so aggregates hold about four nodes; the coarse matrix is the
+// Galerkin product with the piecewise-constant prolongation (the sum of the
+// entries between two aggregates), which keeps the zero row sums.
 // The cycle: damped Jacobi before and after the coarse correction, the
 // coarse problem visited twice (W-cycle; the levels shrink by about four, so
 // that costs about twice a fine sweep), and the coarsest level (at most
 // `coarsestSize` nodes) solved by a dense pseudo-inverse. Every part is
-// symmetric, so the cycle is a fixed symmetric positive semi-definite
-// operator: a valid preconditioner for CG.
+// symmetric, so the cycle is a fixed symmetric operator, positive on what
+// the tests apply it to: a preconditioner for CG.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <vector>
@@ -24,7 +25,6 @@ namespace tet2spline::detail {
 class AggregationAmg {
  public:
   struct Options {
-    double strength = 0.25;     ///< j is a strong neighbour of i when −a_ij ≥ strength · max_k (−a_ik)
     int coarsestSize = 400;     ///< the dense solve's size at most
     int sweeps = 1;             ///< Jacobi sweeps before and after the coarse correction
     double jacobiWeight = 2.0 / 3.0;

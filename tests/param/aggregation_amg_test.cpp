@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "tet2spline/param/optimal_transport.h"
@@ -82,6 +83,21 @@ TEST(AggregationAmg, LevelsShrinkToADenseCoarsest) {
   EXPECT_EQ(sizes.front(), 20000);
   EXPECT_LE(sizes.back(), detail::AggregationAmg::Options().coarsestSize);
   for (size_t l = 1; l < sizes.size(); ++l) EXPECT_LT(sizes[l], sizes[l - 1] / 2) << "level " << l;
+}
+
+TEST(AggregationAmg, AMatrixThatDoesNotCoarsenIsSweptNotFactorisedDensely) {
+  // No off-diagonal entries: nothing pairs, and 5000 rows are too many for
+  // the dense solve; the cycle is then Jacobi sweeps, which here converge
+  // to the inverse.
+  const int n = 5000;
+  Eigen::SparseMatrix<double> D(n, n);
+  Eigen::VectorXd r(n);
+  for (int i = 0; i < n; ++i) D.insert(i, i) = 1.0 + i % 7, r[i] = std::sin(i);
+  const detail::AggregationAmg amg(D);
+  EXPECT_EQ(amg.levelSizes(), std::vector<int>{n});
+  Eigen::VectorXd z;
+  amg.apply(r, z);
+  for (int i = 0; i < n; ++i) ASSERT_NEAR(z[i], r[i] / (1.0 + i % 7), 1e-8) << i;
 }
 
 TEST(AggregationAmg, TransportNeedsFewerCgIterationsThanJacobiForTheSameResult) {
