@@ -179,7 +179,7 @@ BarrierMorphResult morphTowards(const Eigen::MatrixX3d& reference, const Eigen::
             if (!(D > 0)) return std::numeric_limits<double>::infinity();  // the barrier
             Eigen::Matrix3d dJ;
             sum += detail::untangleEnergy(J, 0, 0, g ? &dJ : nullptr);  // ε = 0, shape term only
-            if (g) cornerGrad.set(t, dJ * G);  // column k: gradient with respect to vertex k
+            if (g) cornerGrad.setProduct(t, 1, dJ, G);  // column k: gradient with respect to vertex k
           }
           return sum;
         },

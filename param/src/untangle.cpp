@@ -363,18 +363,26 @@ int patchMaxMin(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::Ve
             for (int j = 0; j < 4; ++j) add(T(vt.corner[static_cast<size_t>(e)] / 4, j));
         }
         if (patch.empty()) continue;
-        // The tets touching the patch, and each patch vertex's first unknown.
-        std::vector<int> tets, column;
-        std::vector<VertexMoves> moves;
-        Eigen::Index nz = 0;
-        for (int v : patch) {
-          moves.push_back(vertexMoves(W, T, vt, v, movable[static_cast<size_t>(v)], lo, hi));
-          withinReach(moves.back());
-          column.push_back(static_cast<int>(nz));
-          nz += moves.back().dirs.cols();
+        // The tets touching the patch.
+        std::vector<int> tets;
+        for (int v : patch)
           for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e)
             tets.push_back(vt.corner[static_cast<size_t>(e)] / 4);
-        }
+        // Each patch vertex's moves at its current position and its first
+        // unknown; nz unknowns in all.
+        std::vector<VertexMoves> moves(patch.size());
+        std::vector<int> column(patch.size());
+        Eigen::Index nz = 0;
+        auto setMoves = [&] {
+          nz = 0;
+          for (size_t p = 0; p < patch.size(); ++p) {
+            moves[p] = vertexMoves(W, T, vt, patch[p], movable[static_cast<size_t>(patch[p])], lo, hi);
+            withinReach(moves[p]);
+            column[p] = static_cast<int>(nz);
+            nz += moves[p].dirs.cols();
+          }
+        };
+        setMoves();
         std::sort(tets.begin(), tets.end());
         tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
         auto leastVolume = [&] {
@@ -427,14 +435,7 @@ int patchMaxMin(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::Ve
             break;
           }
           ++moved;
-          // The next iteration's directions and reaches are at the new positions.
-          nz = 0;
-          for (size_t p = 0; p < patch.size(); ++p) {
-            moves[p] = vertexMoves(W, T, vt, patch[p], movable[static_cast<size_t>(patch[p])], lo, hi);
-            withinReach(moves[p]);
-            column[p] = static_cast<int>(nz);
-            nz += moves[p].dirs.cols();
-          }
+          setMoves();  // (the next iteration's, at the new positions)
           if (nz == 0) break;
         }
       }
@@ -708,26 +709,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
               det[a] = J.determinant();
               Eigen::Matrix3d dJ;
               sum += weight[t] * detail::untangleEnergy(J, eps, options.theta, g ? &dJ : nullptr);
-              if (g) {  // corner k's term: (w dJ) G_k, gradient with respect to vertex k
-                // In scalars: the profile showed Eigen's temporaries, stored
-                // as packets and reloaded across them as columns, stalling on
-                // store forwarding. Measured: homer's final untangling (cube)
-                // 30.6 -> 29.2 s, the same map bitwise.
-                const double w = weight[t];
-                double wd[3][3];
-                for (int i = 0; i < 3; ++i)
-                  for (int l = 0; l < 3; ++l) wd[i][l] = w * dJ(i, l);
-                for (int k = 0; k < 4; ++k) {
-                  double* out = cornerGrad.term(t, k);
-                  // The sums in the order of the Eigen product they replace,
-                  // so that the result stays bitwise the same: rows 0 and 1
-                  // as one packet, (x0 + x1) + x2, row 2 by its reduction,
-                  // x0 + (x1 + x2).
-                  out[0] = (wd[0][0] * G(0, k) + wd[0][1] * G(1, k)) + wd[0][2] * G(2, k);
-                  out[1] = (wd[1][0] * G(0, k) + wd[1][1] * G(1, k)) + wd[1][2] * G(2, k);
-                  out[2] = wd[2][0] * G(0, k) + (wd[2][1] * G(1, k) + wd[2][2] * G(2, k));
-                }
-              }
+              if (g) cornerGrad.setProduct(t, weight[t], dJ, G);  // column k: gradient with respect to vertex k
             }
             return sum;
           },
