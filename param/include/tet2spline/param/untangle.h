@@ -153,6 +153,8 @@ struct UntangleOptions {
   /// 6 -> 2 -> 1 -> 0 (param 421 s, no morph); without the patch moves the
   /// rounds stopped at 2 and the morph took over. On bunny00's cube map
   /// they turned a valid end (55 -> 2 -> 0) into one that stopped at 1.
+  /// (Since the transport's AMG solves, bunny00's ball budget ends with 8371
+  /// left: the repair leaves 11 and one finishing round 0; param 443 s.)
   /// Only when at most max(100, localRepairFraction · #tets) tets are left
   /// inverted or boundary triangles flipped (many more: the run fails anyway,
   /// and the moves would take minutes).
