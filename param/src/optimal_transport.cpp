@@ -444,13 +444,14 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
       // The current diagram seeds the trial's: its regular triangulation
       // is repaired by flips rather than built again.
       PowerDiagram trial = computePowerDiagram(y, psiTrial, domain, CellMeasure::DualWhereInside, true,
-                                               withTails ? &psiTrialTail : nullptr, &pd);
+                                               withTails ? &psiTrialTail : nullptr, &pd, eps0);
       ++stats.evaluations;
       stats.repairedDiagrams += trial.repaired;
+      stats.rejectedDiagrams += trial.rejected;
       stats.flips += trial.flips;
       stats.triangulationSeconds += trial.triangulationSeconds;
       stats.clippingSeconds += trial.clippingSeconds;
-      if (trial.volumes.minCoeff() < eps0) return false;
+      if (trial.rejected || trial.volumes.minCoeff() < eps0) return false;
       Eigen::VectorXd gTrial = nu - trial.volumes;
       if (merit(gTrial) > (1 - 0.5 * t) * gNorm) return false;
       psi.swap(psiTrial);

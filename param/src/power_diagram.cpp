@@ -18,6 +18,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -401,6 +402,46 @@ struct WeightDifference {
   }
 };
 
+// Sets s.cell to the Laguerre cell of site i clipped to Ω and to the
+// half-spaces of the sites neighbours[0 .. count) (its whole cell when they
+// include all its regular-triangulation neighbours, a superset otherwise),
+// in coordinates local to y_i. A neighbour's plane has source k (its index
+// in `neighbours`), a box face −1 .. −6, the ball's tangent plane p −100 − p.
+void clipCell(CellScratch& s, const Eigen::MatrixX3d& points, const WeightDifference& weightDifference,
+              const Domain& domain, int i, const int* neighbours, int count) {
+  ConvexCell& cell = s.cell;
+  const Eigen::Vector3d y = points.row(i).transpose();
+  cell.initBox(domain.boundingBox().min() - y, domain.boundingBox().max() - y);
+  // Every regular-triangulation neighbour bounds the unclipped cell, so
+  // nearly every plane cuts; the radius test skips the rest in O(1).
+  for (int k = 0; k < count && !cell.empty(); ++k) {
+    const int j = neighbours[k];
+    const Eigen::Vector3d d = points.row(j).transpose() - y;
+    const double c = radicalOffset(d, weightDifference(i, j));
+    if (c > 0 && c * c >= cell.radius2() * d.squaredNorm()) continue;
+    cell.clip(d, c, k);
+  }
+  if (domain.kind() != Domain::Kind::Ball) return;
+  const Eigen::MatrixX3d& ballNormals = domain.planeNormals();
+  int hint = -1;
+  for (int round = 0; round < 100000 && !cell.empty(); ++round) {
+    s.planes.clear();
+    for (const Eigen::Vector3d& u : cell.vertices()) {
+      const Eigen::Vector3d x = y + u;
+      if (x.squaredNorm() <= 1) continue;
+      const int p = domain.mostExposedPlane(x, hint);
+      hint = p;
+      if (ballNormals.row(p).dot(x) > 1 + 1e-13 && std::find(s.planes.begin(), s.planes.end(), p) == s.planes.end())
+        s.planes.push_back(p);
+    }
+    if (s.planes.empty()) break;
+    for (int p : s.planes) {
+      const Eigen::Vector3d nrm = ballNormals.row(p).transpose();
+      cell.clip(nrm, 1 - nrm.dot(y), -100 - p);
+    }
+  }
+}
+
 // kEvenCompletion[q][r] = a for q ≠ r: the slot a such that (q, r, a, b) is
 // an even permutation of (0, 1, 2, 3), b the fourth slot.
 constexpr std::array<std::array<int, 4>, 4> kEvenCompletion = [] {
@@ -530,11 +571,96 @@ int Domain::mostExposedPlane(const Eigen::Vector3d& x, int start) const {
 
 namespace {
 
+// Whether the cell of one of the sites `suspects` is provably below
+// `volume`: the cell clipped by the site's neighbours in `tets` (any
+// triangulation of the sites, regular or not) contains its Laguerre cell.
+bool someCellBelow(const Eigen::MatrixX3d& points, const WeightDifference& weightDifference, const Domain& domain,
+                   const TetArrays& tets, const std::vector<int>& suspects, double volume) {
+  const int m = static_cast<int>(suspects.size());
+  std::vector<int> slot(points.rows(), -1);
+  for (int k = 0; k < m; ++k) slot[suspects[k]] = k;
+  std::vector<std::vector<int>> around(m);
+  for (const auto& tv : tets.vertex)
+    for (int q = 0; q < 4; ++q)
+      if (slot[tv[q]] >= 0)
+        for (int r = 0; r < 4; ++r)
+          if (r != q) around[slot[tv[q]]].push_back(tv[r]);
+  std::atomic<bool> below{false};
+  tbb::enumerable_thread_specific<CellScratch> scratch;
+  tbb::parallel_for(0, m, [&](int k) {
+    if (below) return;
+    std::vector<int>& nb = around[k];
+    std::sort(nb.begin(), nb.end());
+    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+    CellScratch& s = scratch.local();
+    clipCell(s, points, weightDifference, domain, suspects[k], nb.data(), static_cast<int>(nb.size()));
+    double v = 0;
+    Eigen::Vector3d centroid;
+    if (!s.cell.empty()) s.cell.measure(v, centroid, s.faceArea);
+    if (v < volume) below = true;
+  });
+  return below;
+}
+
+enum class SeedRepair { Regular, Rejected, Failed };
+
+// The seed's triangulation made regular for `weights` by flips (see
+// computePowerDiagram), into `tets`: Regular (in `parts` equal parts of the
+// weight change), Rejected (a cell proved below rejectBelow) or Failed.
+// `flips` adds up all flips tried.
+SeedRepair repairFromSeed(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
+                          const WeightDifference& weightDifference, const Domain& domain, const PowerDiagram& seed,
+                          double rejectBelow, TetArrays& tets, long& flips, int& parts) {
+  const int n = static_cast<int>(points.rows());
+  std::vector<int> suspects;
+  // Flips cost about 1 µs each and CGAL's insertion about 4 µs per site
+  // (181k sites, 1.2M tets): a repair needing more than a quarter as many
+  // flips as there are tets is given up (the transport's first trial
+  // steps from a poor start need millions).
+  auto repair = [&](const Eigen::VectorXd& w) {
+    long count = 0;
+    const bool regular =
+        repairRegularTriangulation(points, w, tets, static_cast<long>(tets.vertex.size() / 4), &count, &suspects);
+    flips += count;
+    return regular;
+  };
+  // A failed repair for `weights` themselves whose flipped triangulation
+  // proves a cell below rejectBelow.
+  auto provesSmallCell = [&] {
+    return rejectBelow > 0 && !suspects.empty() &&
+           someCellBelow(points, weightDifference, domain, tets, suspects, rejectBelow);
+  };
+  tets.vertex = seed.tetVertex;
+  tets.neighbour = seed.tetNeighbour;
+  parts = 1;
+  if (repair(weights)) return SeedRepair::Regular;
+  if (provesSmallCell()) return SeedRepair::Rejected;
+  // Lawson's flips can stall in 3D where a continuous change of the weights
+  // would pass through a sequence of flips; going there in equal parts,
+  // each repaired from the last regular triangulation, follows that path
+  // more closely. On bunny00's cube transport the flips stalled 4 times
+  // with no site hidden (each then rebuilt, 0.9 s): 2 parts repaired 3 of
+  // them, 4 parts the fourth (a repair of 15–60k flips takes ~0.1 s).
+  if (seed.triangulationWeights.size() != n || suspects.empty()) return SeedRepair::Failed;
+  const Eigen::VectorXd& w0 = seed.triangulationWeights;
+  for (parts = 2; parts <= 4; parts *= 2) {
+    tets.vertex = seed.tetVertex;
+    tets.neighbour = seed.tetNeighbour;
+    bool regular = true;
+    int k = 1;
+    for (; k < parts && regular; ++k) regular = repair(w0 + (static_cast<double>(k) / parts) * (weights - w0));
+    if (!regular) continue;
+    if (repair(weights)) return SeedRepair::Regular;
+    if (provesSmallCell()) return SeedRepair::Rejected;
+  }
+  return SeedRepair::Failed;
+}
+
 // The diagram of sites in a spatially coherent order (see computePowerDiagram):
 // neighbouring sites, their tets and their rows are close in memory.
 PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
                                   const Eigen::VectorXd* tails, const Domain& domain, CellMeasure measure,
-                                  const PowerDiagram* seed) {
+                                  const PowerDiagram* seed, double rejectBelow) {
   const WeightDifference weightDifference{weights, tails};
   const int n = static_cast<int>(points.rows());
   PowerDiagram pd;
@@ -551,16 +677,21 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
   TetArrays tets;
   if (seed && seed->hiddenSites == 0 && !seed->tetVertex.empty() &&
       static_cast<int>(seed->neighbourStart.size()) == n + 1) {
-    tets.vertex = seed->tetVertex;
-    tets.neighbour = seed->tetNeighbour;
-    // Flips cost about 1 µs each and CGAL's insertion about 4 µs per site
-    // (181k sites, 1.2M tets): a repair needing more than a quarter as many
-    // flips as there are tets is given up (the transport's first trial
-    // steps from a poor start need millions).
-    pd.repaired =
-        repairRegularTriangulation(points, weights, tets, static_cast<long>(tets.vertex.size() / 4), &pd.flips);
-    if (pd.repaired) std::fill(present.begin(), present.end(), 1);
-    else tets = TetArrays();
+    const SeedRepair outcome =
+        repairFromSeed(points, weights, weightDifference, domain, *seed, rejectBelow, tets, pd.flips, pd.repairParts);
+    if (outcome == SeedRepair::Rejected) {
+      pd.rejected = true;
+      pd.repairParts = 0;
+      pd.triangulationSeconds = secondsSince(t0);
+      return pd;
+    }
+    pd.repaired = outcome == SeedRepair::Regular;
+    if (pd.repaired) {
+      std::fill(present.begin(), present.end(), 1);
+    } else {
+      pd.repairParts = 0;
+      tets = TetArrays();
+    }
   }
   if (!pd.repaired) {
     std::vector<std::pair<RegularTriangulation::Weighted_point, int>> input;
@@ -756,45 +887,15 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
   }
 
   // 3. Clip the other cells.
-  const Eigen::MatrixX3d& ballNormals = domain.planeNormals();
   tbb::enumerable_thread_specific<CellScratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
     CellScratch& s = scratch.local();
     ConvexCell& cell = s.cell;
     for (int i = range.begin(); i != range.end(); ++i) {
       if (!present[i] || dual[i]) continue;
-      const Eigen::Vector3d y = points.row(i).transpose();
-      cell.initBox(domain.boundingBox().min() - y, domain.boundingBox().max() - y);
       const int b = pd.neighbourStart[i], e = pd.neighbourStart[i + 1];
-      // Every regular-triangulation neighbour bounds the unclipped cell, so
-      // nearly every plane cuts; the radius test skips the rest in O(1).
-      for (int k = b; k < e && !cell.empty(); ++k) {
-        const int j = pd.neighbour[k];
-        const Eigen::Vector3d d = points.row(j).transpose() - y;
-        const double c = radicalOffset(d, weightDifference(i, j));
-        if (c > 0 && c * c >= cell.radius2() * d.squaredNorm()) continue;
-        cell.clip(d, c, k - b);
-      }
-      if (ball) {
-        int hint = -1;
-        for (int round = 0; round < 100000 && !cell.empty(); ++round) {
-          s.planes.clear();
-          for (const Eigen::Vector3d& u : cell.vertices()) {
-            const Eigen::Vector3d x = y + u;
-            if (x.squaredNorm() <= 1) continue;
-            const int p = domain.mostExposedPlane(x, hint);
-            hint = p;
-            if (ballNormals.row(p).dot(x) > 1 + 1e-13 &&
-                std::find(s.planes.begin(), s.planes.end(), p) == s.planes.end())
-              s.planes.push_back(p);
-          }
-          if (s.planes.empty()) break;
-          for (int p : s.planes) {
-            const Eigen::Vector3d nrm = ballNormals.row(p).transpose();
-            cell.clip(nrm, 1 - nrm.dot(y), -100 - p);
-          }
-        }
-      }
+      const Eigen::Vector3d y = points.row(i).transpose();
+      clipCell(s, points, weightDifference, domain, i, pd.neighbour.data() + b, e - b);
       if (cell.empty()) continue;
       double volume;
       Eigen::Vector3d centroid;
@@ -807,6 +908,7 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
   });
   pd.clippingSeconds = secondsSince(t0);
   for (int i = 0; i < n; ++i) pd.clippedCells += present[i] && !dual[i];
+  if (!tets.vertex.empty()) pd.triangulationWeights = weights;
   pd.tetVertex = std::move(tets.vertex);
   pd.tetNeighbour = std::move(tets.neighbour);
   return pd;
@@ -829,7 +931,8 @@ std::vector<int> spatialOrder(const Eigen::MatrixX3d& points) {
 
 PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
                                  const Domain& domain, CellMeasure measure, bool presorted,
-                                 const Eigen::VectorXd* weightTails, const PowerDiagram* seed) {
+                                 const Eigen::VectorXd* weightTails, const PowerDiagram* seed,
+                                 double rejectBelow) {
   const int n = static_cast<int>(points.rows());
   if (weights.size() != points.rows()) {
     std::ostringstream msg;
@@ -866,7 +969,7 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     if (!valid)
       throw Error(ErrorKind::Usage, "computePowerDiagram: the seed diagram's tets index sites or tets out of range");
   }
-  if (presorted) return diagramOfSortedSites(points, weights, weightTails, domain, measure, seed);
+  if (presorted) return diagramOfSortedSites(points, weights, weightTails, domain, measure, seed, rejectBelow);
 
   // Work in Hilbert order: with the sites in input order (random, for the
   // OT benchmark) every neighbour lookup was a cache miss, and the dual
@@ -889,12 +992,20 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
     sortedSeed.hiddenSites = seed->hiddenSites;
     sortedSeed.tetVertex = seed->tetVertex;
     sortedSeed.tetNeighbour = seed->tetNeighbour;
+    if (seed->triangulationWeights.size() == n) {
+      sortedSeed.triangulationWeights.resize(n);
+      for (int r = 0; r < n; ++r) sortedSeed.triangulationWeights[r] = seed->triangulationWeights[order[r]];
+    }
     for (auto& tv : sortedSeed.tetVertex)
       for (int& v : tv) v = rank[v];
   }
   const double sortSeconds = secondsSince(t0);
   PowerDiagram sorted = diagramOfSortedSites(sortedPoints, sortedWeights, weightTails ? &sortedTails : nullptr,
-                                             domain, measure, seed ? &sortedSeed : nullptr);
+                                             domain, measure, seed ? &sortedSeed : nullptr, rejectBelow);
+  if (sorted.rejected) {
+    sorted.triangulationSeconds += sortSeconds;
+    return sorted;
+  }
 
   // Back to the input order: rows moved, neighbour ids renamed, each row
   // sorted again by id with its areas.
@@ -929,9 +1040,11 @@ PowerDiagram computePowerDiagram(const Eigen::MatrixX3d& points, const Eigen::Ve
   pd.hiddenSites = sorted.hiddenSites;
   pd.clippedCells = sorted.clippedCells;
   pd.repaired = sorted.repaired;
+  pd.repairParts = sorted.repairParts;
   pd.flips = sorted.flips;
   pd.tetVertex = std::move(sorted.tetVertex);
   pd.tetNeighbour = std::move(sorted.tetNeighbour);
+  if (sorted.triangulationWeights.size() == n) pd.triangulationWeights = weights;
   for (auto& tv : pd.tetVertex)
     for (int& v : tv) v = order[v];
   pd.triangulationSeconds = sortSeconds + sorted.triangulationSeconds + secondsSince(t0);

@@ -84,7 +84,7 @@ class FlipRepair {
     return true;
   }
 
-  bool run(long maxFlips, long& flips) {
+  bool run(long maxFlips, long& flips, std::vector<int>* suspects) {
     flips = 0;
     if (!hullInGeneralPosition()) return false;
     const int nt = static_cast<int>(tets_.vertex.size());
@@ -115,7 +115,11 @@ class FlipRepair {
         stack_.pop_back();
         if (!alive_[t] || regular(t, q)) continue;
         if (flip(t, q)) {
-          if (++flips > maxFlips) return false;
+          if (++flips > maxFlips) {
+            stack_.insert(stack_.end(), deferred.begin(), deferred.end());
+            giveUp(stack_, suspects);
+            return false;
+          }
         } else {
           deferred.emplace_back(t, q);
         }
@@ -125,7 +129,10 @@ class FlipRepair {
       // regular or flippable. Stalled when a whole round flips nothing.
       if (flips == flipsBefore) {
         for (const auto& [t, q] : deferred)
-          if (alive_[t] && !regular(t, q)) return false;
+          if (alive_[t] && !regular(t, q)) {
+            giveUp(deferred, suspects);
+            return false;
+          }
         break;
       }
       stack_.assign(deferred.rbegin(), deferred.rend());
@@ -136,6 +143,24 @@ class FlipRepair {
   }
 
  private:
+  // After a stall or at the flip limit: the sites of the facets in
+  // `facets` that are not locally regular (sorted, unique) into
+  // `suspects`, and the tets compacted (a valid triangulation).
+  void giveUp(const std::vector<std::pair<int, int>>& facets, std::vector<int>* suspects) {
+    if (suspects) {
+      suspects->clear();
+      for (const auto& [t, q] : facets) {
+        if (!alive_[t] || regular(t, q)) continue;
+        const int u = tets_.neighbour[t][q];
+        suspects->insert(suspects->end(), tets_.vertex[t].begin(), tets_.vertex[t].end());
+        suspects->push_back(tets_.vertex[u][mirrorSlot(tets_, u, t)]);
+      }
+      std::sort(suspects->begin(), suspects->end());
+      suspects->erase(std::unique(suspects->begin(), suspects->end()), suspects->end());
+    }
+    compact();
+  }
+
   // Tet t with slot r's vertex replaced by site b, oriented?
   CGAL::Orientation orientationWith(int t, int r, int b) const {
     std::array<int, 4> v = tets_.vertex[t];
@@ -293,10 +318,11 @@ constexpr int kEvenPermutations[12][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 
 }  // namespace
 
 bool repairRegularTriangulation(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights, TetArrays& tets,
-                                long maxFlips, long* flips) {
+                                long maxFlips, long* flips, std::vector<int>* suspects) {
+  if (suspects) suspects->clear();
   FlipRepair repair(points, weights, tets);
   long count = 0;
-  const bool ok = repair.run(maxFlips, count);
+  const bool ok = repair.run(maxFlips, count, suspects);
   if (flips) *flips = count;
   return ok;
 }

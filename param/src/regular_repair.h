@@ -25,10 +25,15 @@ struct TetArrays {
 /// is one of its vertices. Flips cannot remove a vertex: a site that the new
 /// weights hide, or a non-regular facet that no flip can remove (Lawson's
 /// algorithm can stall in 3D), or more than `maxFlips` flips make it return
-/// false, and `tets` is then unspecified. On true every interior facet is
-/// locally regular, which makes the triangulation regular.
+/// false. On true every interior facet is locally regular, which makes the
+/// triangulation regular. On false after a stall or at the flip limit,
+/// `tets` is still a triangulation of the sites (positively oriented, every
+/// site a vertex, not regular) and `suspects` (if given) lists the sites of
+/// its facets that are not locally regular, sorted, without repeats; on the
+/// other failures (the seed's tets not positive in these sites, sites on the
+/// hull that are not its corners) `tets` is unchanged and `suspects` empty.
 bool repairRegularTriangulation(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights, TetArrays& tets,
-                                long maxFlips, long* flips = nullptr);
+                                long maxFlips, long* flips = nullptr, std::vector<int>* suspects = nullptr);
 
 /// Rewrites `tets` in a canonical form that depends only on the set of tets:
 /// each tet's slots turned by an even permutation so that its vertex tuple

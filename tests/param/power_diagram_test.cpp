@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <random>
 
 #include "tet2spline/param/error.h"
@@ -371,6 +372,48 @@ TEST(PowerDiagram, RepairedTriangulationIsTheRegularOneCgalBuilds) {
     }
     EXPECT_GT(lastFlips, 100);
   }
+}
+
+TEST(PowerDiagram, FailedRepairsAreRejectedOnlyOverASmallCellAndOtherwiseGoInParts) {
+  // Smooth weight changes (like the transport's Newton steps) of growing
+  // size: small ones are repaired in one go, larger ones exceed the flip
+  // limit (a quarter of the tets) and go in 2 or 4 parts, and those that
+  // hide sites are rejected without a triangulation from scratch. Each
+  // outcome must agree with CGAL's triangulation from scratch.
+  const int n = 20000;
+  const Eigen::MatrixX3d y0 = randomPointsInBall(n, 23, 0.45).rowwise() + Eigen::RowVector3d(0.5, 0.5, 0.5);
+  const std::vector<int> order = spatialOrder(y0);
+  Eigen::MatrixX3d y(n, 3);
+  for (int r = 0; r < n; ++r) y.row(r) = y0.row(order[r]);
+  const Eigen::VectorXd psi0 = randomWeights(n, 24, 2e-5);
+  const PowerDiagram seed = computePowerDiagram(y, psi0, Domain::unitCube(), CellMeasure::DualWhereInside, true);
+  ASSERT_EQ(seed.hiddenSites, 0);
+  const double rejectBelow = 0.5 * seed.volumes.minCoeff();
+  std::map<int, int> outcomes;  // parts (1, 2, 4), or −1 for rejected
+  for (int field = 2; field < 6; ++field)
+    for (double scale : {1.5e-3, 2e-3, 3e-3}) {
+      Eigen::VectorXd psi = psi0;
+      for (int i = 0; i < n; ++i)
+        psi[i] += scale * std::sin(6.0 * (field + 1) * y(i, 0) + 3.0 * field * y(i, 1)) *
+                  std::cos(5.0 * (field + 2) * y(i, 2));
+      const PowerDiagram fresh = computePowerDiagram(y, psi, Domain::unitCube(), CellMeasure::DualWhereInside, true);
+      const PowerDiagram seeded = computePowerDiagram(y, psi, Domain::unitCube(), CellMeasure::DualWhereInside, true,
+                                                      nullptr, &seed, rejectBelow);
+      if (seeded.rejected) {
+        EXPECT_LT(fresh.volumes.minCoeff(), rejectBelow) << field << " " << scale;
+        EXPECT_FALSE(seeded.repaired);
+        ++outcomes[-1];
+        continue;
+      }
+      expectSameDiagram(seeded, fresh);
+      if (seeded.repaired) {
+        EXPECT_EQ(nonRegularFacets(seeded, y, psi), 0) << field << " " << scale;
+        ++outcomes[seeded.repairParts];
+      }
+    }
+  EXPECT_GE(outcomes[1], 1);
+  EXPECT_GE(outcomes[2] + outcomes[4], 1);
+  EXPECT_GE(outcomes[-1], 1);
 }
 
 TEST(PowerDiagram, RepairOnTheBallDomainWithTails) {

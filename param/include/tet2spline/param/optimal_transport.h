@@ -125,7 +125,8 @@ struct OptimalTransportOptions {
 struct OtIterationStats {
   double stepSize = 0;                 ///< accepted 2^-k
   int evaluations = 0;                 ///< power diagrams computed in the line search
-  int repairedDiagrams = 0;            ///< of those, triangulations repaired by flips (the rest CGAL's)
+  int repairedDiagrams = 0;            ///< of those, triangulations repaired by flips
+  int rejectedDiagrams = 0;            ///< of those, repairs that failed but proved a cell below ε0 (not built)
   long flips = 0;                      ///< flips, also of repairs given up
   int linearIterations = 0;            ///< CG iterations (0 for Cholesky)
   bool amg = false;                    ///< CG preconditioned by the AMG cycle (all or some of them)
