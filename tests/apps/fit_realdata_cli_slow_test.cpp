@@ -5,7 +5,8 @@
 //
 // Covered: meshes whose cube parameterization passes today (see
 // tests/param/parameterize_realdata_slow_test.cpp); blobby and fandisk are in
-// convert_cli_slow_test.cpp. Measured at the defaults (negative Gauss points
+// convert_cli_slow_test.cpp, spool is FitCreased below (its volume is not
+// within 2%), bunny00 is left to the benchmark. Measured at the defaults (negative Gauss points
 // before the validity stage -> after, relative RMS, whole test):
 // triceratops 5053 -> 0, 0.0048, 30 s; retinal 2763 -> 0, 0.0032, 16 s;
 // homer 6600 -> 0, 0.0060, 79 s (param 75 s; its fit took 22 s before the
@@ -19,6 +20,7 @@
 // which the fit fills from the faces' samples (face_coverage.h).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <iostream>
 #include <string>
 
@@ -89,3 +91,34 @@ TEST_P(FitHalving, RmsErrorHalvesFrom8To16Elements) {
 
 INSTANTIATE_TEST_SUITE_P(Smooth, FitHalving, ::testing::Values("blobby", "retinal"),
                          [](const auto& info) { return t2stest::testName(info.param); });
+
+// spool (a core between two flanges, creases of 90° where they meet) at the
+// defaults: no negative det J at any Gauss point, as on the other meshes,
+// but its spline overshoots the mesh's volume by more than the 2% above:
+// a cubic fit rounds the concave creases off, filling them. That is the
+// fit's approximation error, so it must shrink as the elements do, and so
+// must the boundary's distance from the input surface. Measured (volume
+// excess, boundary Hausdorff relative to the diagonal): 8 elements 3.2%,
+// 0.112; 16 (the default) 2.6%, 0.064; 24 0.57%, 0.057 (53 s, not run here).
+TEST(FitCreased, SpoolIsValidAndConvergesUnderRefinement) {
+  const auto dir = t2stest::scratchDir("fit_creased_spool");
+  const auto vtu = dir / "param.vtu";
+  auto r = t2stest::runCli("param " + q(t2stest::cgalMesh("spool")) + " -o " + q(vtu) + " --domain cube -q", dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  double volumeError[2] = {0, 0}, hausdorff[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    const auto out = dir / ("fit" + std::to_string(k));
+    r = t2stest::runCli("fit " + q(vtu) + " -o " + q(out) + (k == 0 ? " --elements 8" : "") + " -q", dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto j = readJson(out / "report.json");
+    EXPECT_EQ(j["jacobian"]["negative_gauss_points"].get<long>(), 0) << k;
+    EXPECT_GT(j["jacobian"]["min_scaled"].get<double>(), 0) << k;
+    const double splineVolume = j["spline"]["volume"], meshVolume = j["spline"]["mesh_volume"];
+    volumeError[k] = std::abs(splineVolume / meshVolume - 1);
+    hausdorff[k] = j["fit"]["boundary_hausdorff_relative"].get<double>();
+  }
+  std::cout << "spool: volume error " << volumeError[0] << " -> " << volumeError[1] << ", boundary Hausdorff "
+            << hausdorff[0] << " -> " << hausdorff[1] << " (8 -> 16 elements)" << std::endl;
+  EXPECT_LT(volumeError[1], volumeError[0]);
+  EXPECT_LT(hausdorff[1], hausdorff[0]);
+}
