@@ -5,6 +5,7 @@
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -82,11 +83,22 @@ class CornerTerms {
   /// stay bitwise the same: rows 0 and 1 as one packet, (x0 + x1) + x2,
   /// row 2 by its reduction, x0 + (x1 + x2).
   void setProduct(int t, double w, const Eigen::Matrix3d& A, const Eigen::Matrix<double, 3, 4>& G) {
+    setProductAt(slots(t), w, A, G);
+  }
+  /// Tet t's corner slots, for setProductAt.
+  std::array<int, 4> slots(int t) const {
+    std::array<int, 4> s;
+    for (int k = 0; k < 4; ++k) s[k] = slot_[4 * static_cast<size_t>(t) + k];
+    return s;
+  }
+  /// setProduct with the tet's slots given (see slots).
+  void setProductAt(const std::array<int, 4>& slots, double w, const Eigen::Matrix3d& A,
+                    const Eigen::Matrix<double, 3, 4>& G) {
     double wa[3][3];
     for (int i = 0; i < 3; ++i)
       for (int l = 0; l < 3; ++l) wa[i][l] = w * A(i, l);
     for (int k = 0; k < 4; ++k) {
-      double* out = term_[static_cast<size_t>(slot_[4 * static_cast<size_t>(t) + k])].data();
+      double* out = term_[static_cast<size_t>(slots[k])].data();
       out[0] = (wa[0][0] * G(0, k) + wa[0][1] * G(1, k)) + wa[0][2] * G(2, k);
       out[1] = (wa[1][0] * G(0, k) + wa[1][1] * G(1, k)) + wa[1][2] * G(2, k);
       out[2] = wa[2][0] * G(0, k) + (wa[2][1] * G(1, k) + wa[2][2] * G(2, k));

@@ -9,6 +9,7 @@
 //
 // Matrices in J are indexed row-major: entry (i, j) of J is 3i + j.
 #include <Eigen/Dense>
+#include <array>
 #include <cmath>
 
 namespace tet2spline::detail {
@@ -23,6 +24,16 @@ inline Eigen::Matrix3d tetJacobian(const Positions& W, const Eigen::MatrixX4i& T
                                    const Eigen::Matrix<double, 3, 4>& G) {
   Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
   for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
+  return J;
+}
+
+/// The same for the tet with vertices v (the same operations, so the same
+/// bits).
+template <class Positions>
+inline Eigen::Matrix3d tetJacobian(const Positions& W, const std::array<int, 4>& v,
+                                   const Eigen::Matrix<double, 3, 4>& G) {
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+  for (int k = 1; k < 4; ++k) J += (W.row(v[k]) - W.row(v[0])).transpose() * G.col(k).transpose();
   return J;
 }
 
