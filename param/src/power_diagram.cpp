@@ -606,8 +606,8 @@ enum class SeedRepair { Regular, Rejected, Failed };
 
 // The seed's triangulation made regular for `weights` by flips (see
 // computePowerDiagram), into `tets`: Regular (in `parts` equal parts of the
-// weight change), Rejected (a cell proved below rejectBelow) or Failed.
-// `flips` adds up all flips tried.
+// weight change; `parts` is 0 otherwise), Rejected (a cell proved below
+// rejectBelow) or Failed. `flips` adds up all flips tried.
 SeedRepair repairFromSeed(const Eigen::MatrixX3d& points, const Eigen::VectorXd& weights,
                           const WeightDifference& weightDifference, const Domain& domain, const PowerDiagram& seed,
                           double rejectBelow, TetArrays& tets, long& flips, int& parts) {
@@ -630,10 +630,14 @@ SeedRepair repairFromSeed(const Eigen::MatrixX3d& points, const Eigen::VectorXd&
     return rejectBelow > 0 && !suspects.empty() &&
            someCellBelow(points, weightDifference, domain, tets, suspects, rejectBelow);
   };
-  tets.vertex = seed.tetVertex;
-  tets.neighbour = seed.tetNeighbour;
+  auto fromSeed = [&] {
+    tets.vertex = seed.tetVertex;
+    tets.neighbour = seed.tetNeighbour;
+  };
+  fromSeed();
   parts = 1;
   if (repair(weights)) return SeedRepair::Regular;
+  parts = 0;
   if (provesSmallCell()) return SeedRepair::Rejected;
   // Lawson's flips can stall in 3D where a continuous change of the weights
   // would pass through a sequence of flips; going there in equal parts,
@@ -643,14 +647,16 @@ SeedRepair repairFromSeed(const Eigen::MatrixX3d& points, const Eigen::VectorXd&
   // them, 4 parts the fourth (a repair of 15–60k flips takes ~0.1 s).
   if (seed.triangulationWeights.size() != n || suspects.empty()) return SeedRepair::Failed;
   const Eigen::VectorXd& w0 = seed.triangulationWeights;
-  for (parts = 2; parts <= 4; parts *= 2) {
-    tets.vertex = seed.tetVertex;
-    tets.neighbour = seed.tetNeighbour;
+  for (int pieces = 2; pieces <= 4; pieces *= 2) {
+    fromSeed();
     bool regular = true;
-    int k = 1;
-    for (; k < parts && regular; ++k) regular = repair(w0 + (static_cast<double>(k) / parts) * (weights - w0));
+    for (int k = 1; k < pieces && regular; ++k)
+      regular = repair(w0 + (static_cast<double>(k) / pieces) * (weights - w0));
     if (!regular) continue;
-    if (repair(weights)) return SeedRepair::Regular;
+    if (repair(weights)) {
+      parts = pieces;
+      return SeedRepair::Regular;
+    }
     if (provesSmallCell()) return SeedRepair::Rejected;
   }
   return SeedRepair::Failed;
@@ -681,17 +687,12 @@ PowerDiagram diagramOfSortedSites(const Eigen::MatrixX3d& points, const Eigen::V
         repairFromSeed(points, weights, weightDifference, domain, *seed, rejectBelow, tets, pd.flips, pd.repairParts);
     if (outcome == SeedRepair::Rejected) {
       pd.rejected = true;
-      pd.repairParts = 0;
       pd.triangulationSeconds = secondsSince(t0);
       return pd;
     }
     pd.repaired = outcome == SeedRepair::Regular;
-    if (pd.repaired) {
-      std::fill(present.begin(), present.end(), 1);
-    } else {
-      pd.repairParts = 0;
-      tets = TetArrays();
-    }
+    if (pd.repaired) std::fill(present.begin(), present.end(), 1);
+    else tets = TetArrays();
   }
   if (!pd.repaired) {
     std::vector<std::pair<RegularTriangulation::Weighted_point, int>> input;
