@@ -19,6 +19,7 @@ struct ParamStageOptions {
   std::string untangler = "lbfgs";
   int boundarySmoothing = BoundarySmoothingOptions().sweeps;
   int interiorSmoothing = BoundarySmoothingOptions().interiorSweeps;
+  double siteStretch = ParamOptions().cubeSiteStretch;
 
   void addTo(CLI::App* cmd);
   /// Throws Error(Usage) for a malformed --density.

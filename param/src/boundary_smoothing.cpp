@@ -43,6 +43,9 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
   if (options.targetVolumes.size() != 0 && options.targetVolumes.size() != nt)
     throw Error(ErrorKind::Input, "smoothBoundary: " + std::to_string(options.targetVolumes.size()) +
                                       " target volumes for " + std::to_string(nt) + " tets");
+  if (!options.held.empty() && static_cast<Eigen::Index>(options.held.size()) != nv)
+    throw Error(ErrorKind::Input, "smoothBoundary: " + std::to_string(options.held.size()) + " held flags for " +
+                                      std::to_string(nv) + " vertices");
   if (faces.rows() > 0 && (faces.minCoeff() < 0 || faces.maxCoeff() >= nv))
     throw Error(ErrorKind::Input, "smoothBoundary: a boundary triangle's vertex index is out of range");
 
@@ -154,8 +157,10 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
     return false;
   };
 
+  auto isHeld = [&](int i) { return !options.held.empty() && options.held[static_cast<size_t>(i)]; };
   for (int sweep = 0; sweep < options.sweeps; ++sweep) {
     for (int i : boundary) {
+      if (isHeld(i)) continue;
       const Eigen::RowVector3d old = P.row(i);
       Eigen::RowVector3d target;
       int pinned = 0;
@@ -204,7 +209,7 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
     for (int sweep = 0; sweep < options.interiorSweeps; ++sweep) {
       for (Eigen::Index iv = 0; iv < nv; ++iv) {
         const int i = static_cast<int>(iv);
-        if (!facesOf[static_cast<size_t>(i)].empty()) continue;
+        if (!facesOf[static_cast<size_t>(i)].empty() || isHeld(i)) continue;
         const int k0 = tetsOf.offset[static_cast<size_t>(i)], k1 = tetsOf.offset[static_cast<size_t>(i) + 1];
         if (k0 == k1) continue;
         nb.clear();

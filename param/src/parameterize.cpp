@@ -413,6 +413,14 @@ Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure)
   return w;
 }
 
+// A point of the unit ball stretched towards [0,1]³: ½ + ½ x (|x|₂/|x|_∞)^α
+// (α = 1: onto the cube, see below; α = 0: the inscribed ball).
+Eigen::RowVector3d stretchTowardsCube(const Eigen::Vector3d& x, double alpha) {
+  const double inf = x.cwiseAbs().maxCoeff();
+  if (!(inf > 0)) return Eigen::RowVector3d(0.5, 0.5, 0.5);
+  return Eigen::RowVector3d((0.5 * x * std::pow(x.norm() / inf, alpha)).array() + 0.5);
+}
+
 // The ball map stretched onto the cube: x ↦ ½ + ½ x |x|₂/|x|_∞ (see
 // below); the vertices of boundaryFaces get their largest coordinate set
 // exactly.
@@ -429,7 +437,7 @@ Eigen::MatrixX3d stretchOntoCube(const Eigen::MatrixX3d& ball, const Eigen::Matr
       U.row(v) = (0.5 * x / inf).array() + 0.5;
       U(v, axis) = x[axis] > 0 ? 1 : 0;
     } else {
-      U.row(v) = inf > 0 ? Eigen::RowVector3d((0.5 * x * (x.norm() / inf)).array() + 0.5) : Eigen::RowVector3d(0.5, 0.5, 0.5);
+      U.row(v) = stretchTowardsCube(x, 1.0);
     }
   }
   return U;
@@ -509,6 +517,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
   const auto start = Clock::now();
   if (!options.transport && options.domain != ParamDomain::Ball)
     throw Error(ErrorKind::Usage, "without transport the parameterization is the harmonic ball map: use --domain ball");
+  if (!(options.cubeSiteStretch >= 0 && options.cubeSiteStretch <= 1))
+    throw Error(ErrorKind::Usage, "cubeSiteStretch must be in [0, 1]");
   ParamResult r;
   auto report = [&](double fraction, const std::string& what) {
     if (options.progress && !options.progress(fraction, what)) throw Status::failure("stopped during " + what);
@@ -587,7 +597,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // 4. transport
       t0 = Clock::now();
       Eigen::MatrixX3d y = r.ballU;
-      if (options.domain == ParamDomain::Cube) y = (0.5 * y.array() + 0.5).matrix();
+      if (options.domain == ParamDomain::Cube)
+        for (Eigen::Index v = 0; v < nv; ++v) y.row(v) = stretchTowardsCube(y.row(v).transpose(), options.cubeSiteStretch);
       std::vector<int> siteStart;
       Eigen::MatrixX3d sites;
       Eigen::VectorXd masses;
@@ -845,6 +856,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         BoundarySmoothingOptions smoothing = options.boundarySmoothing;
         smoothing.shape = options.domain == ParamDomain::Cube ? BoundaryShape::UnitCube : BoundaryShape::UnitSphere;
         smoothing.targetVolumes = r.targetVolume;
+        smoothing.held.assign(jumps.begin(), jumps.end());
         BoundarySmoothingResult smoothed = smoothBoundary(mesh.V, mesh.T, r.U, r.boundaryFaces, smoothing);
         r.U = std::move(smoothed.U);
         r.param.boundarySmoothingMoves = smoothed.moves;

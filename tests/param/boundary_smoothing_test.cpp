@@ -197,6 +197,44 @@ TEST(BoundarySmoothing, RemovesTangentialNoiseOnTheCube) {
   expectCubeInvariants(U, r.U, m.T, F);
 }
 
+TEST(BoundarySmoothing, HeldVerticesKeepAKinkWhereTheDensityJumps) {
+  // X = f(U) piecewise affine: slope 3 in x beyond u_x = 1/2, as a density
+  // jump makes it. U(X) is affine on either side of the plane, so the only
+  // vertices whose local fit is not exact are those on it. Unheld, they move
+  // and the parametric volume of each side changes; held (as the pipeline
+  // holds the vertices where the density jumps), nothing moves.
+  const int n = 8;
+  const TetMesh m = t2stest::kuhnCube(n, [](const Eigen::Vector3d& u) {
+    const double x = u.x() <= 0.5 ? u.x() : 0.5 + 3.0 * (u.x() - 0.5);
+    return Eigen::Vector3d(kShear * Eigen::Vector3d(x, u.y(), u.z()) + kShift);
+  });
+  const Eigen::MatrixX3d U = pointField(m, "U");
+  const Eigen::MatrixX3i F = boundaryFaces(m);
+  auto leftVolume = [&](const Eigen::MatrixX3d& P) {
+    double v = 0;
+    for (Eigen::Index t = 0; t < m.numTets(); ++t) {
+      const double cx = 0.25 * (U(m.T(t, 0), 0) + U(m.T(t, 1), 0) + U(m.T(t, 2), 0) + U(m.T(t, 3), 0));
+      if (cx >= 0.5) continue;
+      Eigen::Matrix3d E;
+      for (int c = 0; c < 3; ++c) E.col(c) = (P.row(m.T(t, c + 1)) - P.row(m.T(t, 0))).transpose();
+      v += E.determinant() / 6;
+    }
+    return v;
+  };
+  BoundarySmoothingOptions o;
+  const BoundarySmoothingResult loose = smoothBoundary(m.V, m.T, U, F, o);
+  EXPECT_GT((loose.U - U).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_GT(std::abs(leftVolume(loose.U) - 0.5), 1e-3);
+
+  o.held.assign(static_cast<size_t>(m.numVertices()), false);
+  for (Eigen::Index i = 0; i < m.numVertices(); ++i) o.held[static_cast<size_t>(i)] = U(i, 0) == 0.5;
+  const BoundarySmoothingResult held = smoothBoundary(m.V, m.T, U, F, o);
+  EXPECT_GT(held.moves + held.interiorMoves, 0);
+  EXPECT_LT((held.U - U).cwiseAbs().maxCoeff(), 1e-13);
+  EXPECT_NEAR(leftVolume(held.U), 0.5, 1e-13);
+  expectCubeInvariants(U, held.U, m.T, F, false);
+}
+
 TEST(BoundarySmoothing, RejectsMismatchedInput) {
   const TetMesh m = t2stest::kuhnCube(2, [](const Eigen::Vector3d& u) { return u; });
   const Eigen::MatrixX3d U = pointField(m, "U");
@@ -208,6 +246,9 @@ TEST(BoundarySmoothing, RejectsMismatchedInput) {
   BoundarySmoothingOptions o;
   o.targetVolumes = Eigen::VectorXd::Ones(m.numTets() - 1);
   EXPECT_THROW(smoothBoundary(m.V, m.T, U, F, o), Error);
+  BoundarySmoothingOptions h;
+  h.held.assign(static_cast<size_t>(m.numVertices() - 1), false);
+  EXPECT_THROW(smoothBoundary(m.V, m.T, U, F, h), Error);
 }
 
 // Real meshes: the parameterization without the smoothing, then smoothed.

@@ -3,6 +3,8 @@
 // conservation, invariance, boundary on ∂Ω, zero inverted tets.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "param_checks.h"
 #include "cli_meshing.h"
 #include "test_data.h"
@@ -71,6 +73,26 @@ TEST_P(TwoRegions, DensityFourGivesTheTargetVolumeFractions) {
 
 INSTANTIATE_TEST_SUITE_P(Domains, TwoRegions, ::testing::Values(ParamDomain::Ball, ParamDomain::Cube),
                          [](const auto& info) { return info.param == ParamDomain::Ball ? "ball" : "cube"; });
+
+// The cube's sites stretched from the ball towards the cube (cubeSiteStretch):
+// still a valid map with the regions' volumes; outside [0, 1] refused.
+TEST(Parameterize, StretchedCubeSitesKeepTheMapValidAndTheRegionFractions) {
+  const TetMesh mesh = twoRegionSphere();
+  ParamOptions o;
+  o.domain = ParamDomain::Cube;
+  o.measure.regionDensity[2] = 4;
+  o.cubeSiteStretch = 0.9;
+  const ParamResult r = parameterize(mesh, o);
+  expectValidParameterization(r, ParamDomain::Cube);
+  ASSERT_EQ(r.regions.size(), 2u);
+  for (const RegionFigures& g : r.regions)
+    EXPECT_NEAR(g.achievedVolumeFraction, g.targetVolumeFraction, 0.005) << "region " << g.id;
+  EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.02 * r.domainVolume);
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    o.cubeSiteStretch = bad;
+    EXPECT_THROW(parameterize(mesh, o), Error) << bad;
+  }
+}
 
 // The final untangling's work budget (ParamOptions::finalUntangleWork): a
 // budget too small for the composition's inversions (and no local repair)

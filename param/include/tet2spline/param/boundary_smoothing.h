@@ -30,6 +30,7 @@
 /// ∂Ω in U.
 
 #include <Eigen/Core>
+#include <vector>
 
 namespace tet2spline {
 
@@ -73,6 +74,13 @@ struct BoundarySmoothingOptions {
   /// vertex's tets, so the smoothing never works against the measure (tets
   /// whose target is not positive do not count).
   Eigen::VectorXd targetVolumes;
+  /// Per vertex (#V, or empty): vertices that never move. The pipeline holds
+  /// those where the density jumps: the map has a kink there, and the
+  /// affine fit across it pulled the interface inwards (models/two_material.off,
+  /// --density 2=4, cube: region 2 at 0.1473 of the cube after the measure
+  /// relaxation, 0.1460 after the sweeps, 0.1471 with these vertices held;
+  /// target 0.1485).
+  std::vector<bool> held;
 };
 
 struct BoundarySmoothingResult {
