@@ -123,7 +123,8 @@ void writeRunHtml(const json& report, const ParamResult* param, const spline::BS
                                                               {"boundary distance to ∂Ω", "param.boundary_max_distance"},
                                                               {"volume ratio p1", "param.volume_ratio.p1"},
                                                               {"volume ratio p50", "param.volume_ratio.p50"},
-                                                              {"volume ratio p99", "param.volume_ratio.p99"}}));
+                                                              {"volume ratio p99", "param.volume_ratio.p99"},
+                                                              {"misplaced volume (8³ cells)", "param.misplaced_volume"}}));
   h.sections.push_back(section(report, "Spline", {{"degree", "spline.degree"},
                                                    {"control points", "spline.control_points"},
                                                    {"RMS error / diagonal", "fit.rms_error_relative"},

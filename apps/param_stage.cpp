@@ -117,6 +117,7 @@ void addParamReport(json& j, const ParamResult& r) {
   setPath(j, "param.volume_ratio", json{{"p1", r.param.volumeRatioP1}, {"p50", r.param.volumeRatioP50},
                                         {"p99", r.param.volumeRatioP99}, {"min", r.param.volumeRatioMin},
                                         {"max", r.param.volumeRatioMax}});
+  setPath(j, "param.misplaced_volume", r.param.misplacedVolume);
   json regions = json::array();
   for (const RegionFigures& g : r.regions)
     regions.push_back({{"id", g.id}, {"void", g.isVoid}, {"physical_volume", g.physicalVolume}, {"density", g.density},

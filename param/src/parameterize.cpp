@@ -479,6 +479,9 @@ constexpr double kBallShapesWork = 250;
 constexpr double kMorphCloseEnough = 1;  // target edges, rms
 // The final untangling's rounds after its budget is spent (see there).
 constexpr int kFinishingRounds = 8;
+// Cells per direction of ParamResult::Figures::misplacedVolume: 8³, the
+// scale of the spline's elements at the fit's default of 8 to 16.
+constexpr int kMisplacementCells = 8;
 
 // The start on the ball (the ball map, its leftover inversions repaired),
 // or an empty matrix.
@@ -511,6 +514,35 @@ Eigen::MatrixX3d untangleStretch(const TetMesh& mesh, const Eigen::MatrixX3d& ba
   if (u.stopped) throw Status::failure("stopped during the morph's start");
   if (u.invertedAfter > 0 || u.flippedBoundaryTriangles > 0) return {};
   return u.U;
+}
+
+double misplacedVolumeFraction(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T, const Eigen::VectorXd& targetVolumes,
+                               const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells) {
+  const Eigen::Index nt = T.rows();
+  if (targetVolumes.size() != nt)
+    throw Error(ErrorKind::Input, "misplacedVolumeFraction: " + std::to_string(targetVolumes.size()) +
+                                      " target volumes for " + std::to_string(nt) + " tets");
+  if (cells < 1) throw Error(ErrorKind::Input, "misplacedVolumeFraction: cells < 1");
+  if (nt > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= U.rows()))
+    throw Error(ErrorKind::Input, "misplacedVolumeFraction: a tet's vertex index is out of range");
+  const size_t nc = static_cast<size_t>(cells) * static_cast<size_t>(cells) * static_cast<size_t>(cells);
+  std::vector<double> difference(nc, 0.0);
+  double total = 0;
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    const Eigen::Vector3d c =
+        0.25 * (U.row(T(t, 0)) + U.row(T(t, 1)) + U.row(T(t, 2)) + U.row(T(t, 3))).transpose();
+    size_t cell = 0;
+    for (int d = 2; d >= 0; --d) {
+      const double s = hi[d] > lo[d] ? (c[d] - lo[d]) / (hi[d] - lo[d]) : 0.0;
+      const int k = std::clamp(static_cast<int>(std::floor(s * cells)), 0, cells - 1);
+      cell = cell * static_cast<size_t>(cells) + static_cast<size_t>(k);
+    }
+    difference[cell] += signedVolume(U, T, t) - targetVolumes(t);
+    total += targetVolumes(t);
+  }
+  double misplaced = 0;
+  for (const double d : difference) misplaced += std::abs(d);
+  return total > 0 ? 0.5 * misplaced / total : 0.0;
 }
 
 ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
@@ -891,6 +923,11 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     r.param.volumeRatioP1 = percentile(ratios, 0.01);
     r.param.volumeRatioP50 = percentile(ratios, 0.5);
     r.param.volumeRatioP99 = percentile(ratios, 0.99);
+    {
+      const bool cube = options.domain == ParamDomain::Cube;
+      r.param.misplacedVolume = misplacedVolumeFraction(r.U, mesh.T, r.targetVolume, Eigen::Vector3d::Constant(cube ? 0.0 : -1.0),
+                                                        Eigen::Vector3d::Constant(1.0), kMisplacementCells);
+    }
     r.param.volumeRatioMin = *std::min_element(ratios.begin(), ratios.end());
     r.param.volumeRatioMax = *std::max_element(ratios.begin(), ratios.end());
     std::map<int, RegionFigures> regions;

@@ -7,6 +7,7 @@
 
 #include "param_checks.h"
 #include "cli_meshing.h"
+#include "cube_param_meshes.h"
 #include "test_data.h"
 #include "tet2spline/io/mesh_io.h"
 #include "test_shapes.h"
@@ -73,6 +74,31 @@ TEST_P(TwoRegions, DensityFourGivesTheTargetVolumeFractions) {
 
 INSTANTIATE_TEST_SUITE_P(Domains, TwoRegions, ::testing::Values(ParamDomain::Ball, ParamDomain::Cube),
                          [](const auto& info) { return info.param == ParamDomain::Ball ? "ball" : "cube"; });
+
+// misplacedVolumeFraction: 0 for a map with its measure; for u = x² on the
+// unit cube with the physical volumes as targets, cell [a, b) in u holds b − a
+// of parametric volume for √b − √a of target, so over 4³ cells half the L1
+// difference is ½ Σ_a |¼ − (√(a+¼) − √a)| = ¼ (up to the tets binned whole).
+TEST(Parameterize, MisplacedVolumeIsZeroForTheMeasureAndAQuarterForASquaredCoordinate) {
+  const TetMesh m = t2stest::kuhnCube(16, [](const Eigen::Vector3d& u) { return u; });
+  Eigen::VectorXd target(m.numTets());
+  for (Eigen::Index t = 0; t < m.numTets(); ++t) {
+    Eigen::Matrix3d E;
+    for (int c = 0; c < 3; ++c) E.col(c) = (m.V.row(m.T(t, c + 1)) - m.V.row(m.T(t, 0))).transpose();
+    target(t) = E.determinant() / 6;
+  }
+  const Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Ones();
+  EXPECT_LT(misplacedVolumeFraction(m.V, m.T, target, lo, hi, 8), 1e-12);
+  Eigen::MatrixX3d U = m.V;
+  U.col(0) = m.V.col(0).array().square().matrix();
+  const double expected = 0.25;
+  EXPECT_NEAR(misplacedVolumeFraction(U, m.T, target, lo, hi, 4), expected, 0.02);
+  // Scaled with its box and its targets: the same fraction.
+  EXPECT_NEAR(misplacedVolumeFraction(Eigen::MatrixX3d(2.0 * U), m.T, Eigen::VectorXd(8.0 * target), 2 * lo, 2 * hi, 4),
+              misplacedVolumeFraction(U, m.T, target, lo, hi, 4), 1e-12);
+  EXPECT_THROW(misplacedVolumeFraction(U, m.T, target.head(3), lo, hi, 4), Error);
+  EXPECT_THROW(misplacedVolumeFraction(U, m.T, target, lo, hi, 0), Error);
+}
 
 // The cube's sites stretched from the ball towards the cube (cubeSiteStretch):
 // still a valid map with the regions' volumes; outside [0, 1] refused.

@@ -259,6 +259,9 @@ struct ParamResult {
     double boundaryMaxDistance = 0;    ///< largest distance of a boundary vertex to ∂Ω
     double volumeRatioP1 = 0, volumeRatioP50 = 0, volumeRatioP99 = 0;  ///< parametric / target, per tet
     double volumeRatioMin = 0, volumeRatioMax = 0;
+    /// The measure at the scale of spline elements: misplacedVolumeFraction
+    /// over 8³ cells of Ω's bounding box, with the target volumes.
+    double misplacedVolume = 0;
     int cornerVertices = 0, edgeVertices = 0;  ///< cube: boundary vertices put on corners / edges
     int flippedBoundaryTriangles = 0;  ///< exact, boundary triangles flipped on ∂Ω (seen from its centre)
     int finishingRounds = 0;           ///< ε rounds after the final untangling's budget was spent, each leaving fewer
@@ -282,5 +285,16 @@ struct ParamResult {
 /// Error(Usage) for bad options (unknown region, ball-less transport-free cube),
 /// Error(Topology) from the ball map; numerical trouble is a failed status.
 ParamResult parameterize(const TetMesh& mesh, const ParamOptions& options = {});
+
+/// How far the map is from its measure at a coarser scale than the tets':
+/// the box [lo, hi] split into cells³ equal cells, each tet counted in the
+/// cell holding its centroid in U, half the sum over the cells of
+/// |Σ parametric volume − Σ target volume|, divided by Σ target volume.
+/// 0 when every cell gets its target; the fraction of the measure that sits
+/// in the wrong cell otherwise (the per-tet volume ratios do not show a
+/// misplacement spread over many tets). Throws Error(Input) for mismatched
+/// sizes and cells < 1.
+double misplacedVolumeFraction(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T, const Eigen::VectorXd& targetVolumes,
+                               const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells);
 
 }  // namespace tet2spline
