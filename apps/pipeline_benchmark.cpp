@@ -127,6 +127,7 @@ nlohmann::json summarize(const std::string& model, const std::vector<PipelineRun
   copy("ot", "max_relative_mass_error", "ot_max_relative_mass_error");
   copy("param", "inverted_tets", "param_inverted_tets");
   copy("param", "volume_ratio", "param_volume_ratio");
+  copy("param", "misplaced_volume", "param_misplaced_volume");
   copy("fit", "rms_error_relative", "fit_rms_error_relative");
   copy("jacobian", "negative_gauss_points", "jacobian_negative_gauss_points");
   copy("jacobian", "min_scaled", "jacobian_min_scaled");

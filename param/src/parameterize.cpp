@@ -414,11 +414,14 @@ Eigen::VectorXd tetDensities(const TetMesh& mesh, const MeasureOptions& measure)
 }
 
 // A point of the unit ball stretched towards [0,1]³: ½ + ½ x (|x|₂/|x|_∞)^α
-// (α = 1: onto the cube, see below; α = 0: the inscribed ball).
+// (α = 1: onto the cube, see below; α = 0: the inscribed ball). Both ends
+// without pow, so that they keep the bits they had before α existed.
 Eigen::RowVector3d stretchTowardsCube(const Eigen::Vector3d& x, double alpha) {
   const double inf = x.cwiseAbs().maxCoeff();
   if (!(inf > 0)) return Eigen::RowVector3d(0.5, 0.5, 0.5);
-  return Eigen::RowVector3d((0.5 * x * std::pow(x.norm() / inf, alpha)).array() + 0.5);
+  const double ratio = x.norm() / inf;
+  const double scale = alpha == 0.0 ? 1.0 : alpha == 1.0 ? ratio : std::pow(ratio, alpha);
+  return Eigen::RowVector3d((0.5 * x * scale).array() + 0.5);
 }
 
 // The ball map stretched onto the cube: x ↦ ½ + ½ x |x|₂/|x|_∞ (see
