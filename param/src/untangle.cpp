@@ -878,12 +878,15 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       const double dmin = detMin();
       ++result.outerIterations;
       result.minDet = dmin;
+      // (the message counts the region's tets and boundary cones with
+      // det J <= 0 in floating point; the exact count comes at the region's end)
       if (options.progress &&
           !options.progress(-1, "untangle: eps " + std::to_string(eps) + ", min det " + std::to_string(dmin) + ", E " +
                                   std::to_string(E) + ", L-BFGS iterations " + std::to_string(result.lbfgsIterations) +
                                   ", Newton iterations " + std::to_string(result.newtonIterations) +
-                                  ", free " + std::to_string(freeVerts.size()) + ", work " +
-                                  formatWork(result.tetEvaluations, nt))) {
+                                  ", free " + std::to_string(freeVerts.size()) + ", inverted " +
+                                  std::to_string(std::count_if(det.begin(), det.end(), [](double d) { return d <= 0; })) +
+                                  ", work " + formatWork(result.tetEvaluations, nt))) {
         result.status = Status::failure("untangle: stopped by the progress callback");
         result.stopped = true;
         break;
