@@ -215,9 +215,7 @@ TEST(BoundarySmoothing, HeldVerticesKeepAKinkWhereTheDensityJumps) {
     for (Eigen::Index t = 0; t < m.numTets(); ++t) {
       const double cx = 0.25 * (U(m.T(t, 0), 0) + U(m.T(t, 1), 0) + U(m.T(t, 2), 0) + U(m.T(t, 3), 0));
       if (cx >= 0.5) continue;
-      Eigen::Matrix3d E;
-      for (int c = 0; c < 3; ++c) E.col(c) = (P.row(m.T(t, c + 1)) - P.row(m.T(t, 0))).transpose();
-      v += E.determinant() / 6;
+      v += t2stest::tetVolume(P, m.T, t);
     }
     return v;
   };

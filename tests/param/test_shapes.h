@@ -11,11 +11,14 @@
 
 namespace t2stest {
 
-/// Signed volume of tet t.
-inline double tetVolume(const tet2spline::TetMesh& m, Eigen::Index t) {
-  const Eigen::Vector3d a = m.V.row(m.T(t, 0)), b = m.V.row(m.T(t, 1)), c = m.V.row(m.T(t, 2)), d = m.V.row(m.T(t, 3));
+/// Signed volume of tet t of T with its corners at the rows of P.
+inline double tetVolume(const Eigen::MatrixX3d& P, const Eigen::MatrixX4i& T, Eigen::Index t) {
+  const Eigen::Vector3d a = P.row(T(t, 0)), b = P.row(T(t, 1)), c = P.row(T(t, 2)), d = P.row(T(t, 3));
   return (b - a).dot((c - a).cross(d - a)) / 6;
 }
+
+/// Signed volume of tet t.
+inline double tetVolume(const tet2spline::TetMesh& m, Eigen::Index t) { return tetVolume(m.V, m.T, t); }
 
 inline double totalVolume(const tet2spline::TetMesh& m) {
   double v = 0;
