@@ -519,15 +519,13 @@ Eigen::MatrixX3d untangleStretch(const TetMesh& mesh, const Eigen::MatrixX3d& ba
   return u.U;
 }
 
-double misplacedVolumeFraction(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T, const Eigen::VectorXd& targetVolumes,
-                               const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells) {
+namespace {
+// misplacedVolumeFraction with the tets' signed volumes in U given
+// (parameterize has them already); the arguments checked by the caller.
+double misplacedFraction(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T, const Eigen::VectorXd& parametricVolumes,
+                         const Eigen::VectorXd& targetVolumes, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                         int cells) {
   const Eigen::Index nt = T.rows();
-  if (targetVolumes.size() != nt)
-    throw Error(ErrorKind::Input, "misplacedVolumeFraction: " + std::to_string(targetVolumes.size()) +
-                                      " target volumes for " + std::to_string(nt) + " tets");
-  if (cells < 1) throw Error(ErrorKind::Input, "misplacedVolumeFraction: cells < 1");
-  if (nt > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= U.rows()))
-    throw Error(ErrorKind::Input, "misplacedVolumeFraction: a tet's vertex index is out of range");
   const size_t nc = static_cast<size_t>(cells) * static_cast<size_t>(cells) * static_cast<size_t>(cells);
   std::vector<double> difference(nc, 0.0);
   double total = 0;
@@ -540,12 +538,27 @@ double misplacedVolumeFraction(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i
       const int k = std::clamp(static_cast<int>(std::floor(s * cells)), 0, cells - 1);
       cell = cell * static_cast<size_t>(cells) + static_cast<size_t>(k);
     }
-    difference[cell] += signedVolume(U, T, t) - targetVolumes(t);
+    difference[cell] += parametricVolumes(t) - targetVolumes(t);
     total += targetVolumes(t);
   }
   double misplaced = 0;
   for (const double d : difference) misplaced += std::abs(d);
   return total > 0 ? 0.5 * misplaced / total : 0.0;
+}
+}  // namespace
+
+double misplacedVolumeFraction(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T, const Eigen::VectorXd& targetVolumes,
+                               const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int cells) {
+  const Eigen::Index nt = T.rows();
+  if (targetVolumes.size() != nt)
+    throw Error(ErrorKind::Input, "misplacedVolumeFraction: " + std::to_string(targetVolumes.size()) +
+                                      " target volumes for " + std::to_string(nt) + " tets");
+  if (cells < 1) throw Error(ErrorKind::Input, "misplacedVolumeFraction: cells < 1");
+  if (nt > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= U.rows()))
+    throw Error(ErrorKind::Input, "misplacedVolumeFraction: a tet's vertex index is out of range");
+  Eigen::VectorXd parametric(nt);
+  for (Eigen::Index t = 0; t < nt; ++t) parametric(t) = signedVolume(U, T, t);
+  return misplacedFraction(U, T, parametric, targetVolumes, lo, hi, cells);
 }
 
 ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
@@ -928,8 +941,9 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     r.param.volumeRatioP99 = percentile(ratios, 0.99);
     {
       const bool cube = options.domain == ParamDomain::Cube;
-      r.param.misplacedVolume = misplacedVolumeFraction(r.U, mesh.T, r.targetVolume, Eigen::Vector3d::Constant(cube ? 0.0 : -1.0),
-                                                        Eigen::Vector3d::Constant(1.0), kMisplacementCells);
+      r.param.misplacedVolume = misplacedFraction(r.U, mesh.T, r.parametricVolume, r.targetVolume,
+                                                  Eigen::Vector3d::Constant(cube ? 0.0 : -1.0), Eigen::Vector3d::Constant(1.0),
+                                                  kMisplacementCells);
     }
     r.param.volumeRatioMin = *std::min_element(ratios.begin(), ratios.end());
     r.param.volumeRatioMax = *std::max_element(ratios.begin(), ratios.end());
