@@ -28,6 +28,17 @@ class SpdSolver {
     name_ = "simplicial_ldlt (cholmod failed)";
     return ldlt_->info() == Eigen::Success;
   }
+  /// Factorises A, which must have the sparsity pattern of the matrix the
+  /// last successful CHOLMOD factorisation had: CHOLMOD's symbolic analysis
+  /// (fill-reducing ordering, supernodes) is reused, and the factor is the
+  /// same bits as compute(A) would give. Falls back to compute(A) when there
+  /// is no such analysis or the numeric factorisation fails.
+  bool refactorize(const Eigen::SparseMatrix<double>& A) {
+    if (!cholmod_ || cholmod_->rows() != A.rows()) return compute(A);
+    cholmod_->factorize(A);
+    if (cholmod_->info() == Eigen::Success) return true;
+    return compute(A);
+  }
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b) const {
     if (cholmod_) return cholmod_->solve(b);
     return ldlt_->solve(b);

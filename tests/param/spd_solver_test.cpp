@@ -1,0 +1,80 @@
+// The internal sparse Cholesky wrapper's refactorisation: a solver that keeps
+// CHOLMOD's symbolic analysis and factorises a new matrix of the same pattern
+// must give the same bits as a fresh factorisation of that matrix (the
+// spherical map's area correction relies on it to stay bitwise what it was),
+// and must fall back to a fresh one when the pattern's size differs.
+#include "../../param/src/spd_solver.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "test_data.h"
+#include "tet2spline/io/mesh_io.h"
+#include "tet2spline/param/harmonic_map.h"
+#include "tet2spline/param/tetrahedralize.h"
+#include "tet2spline/param/topology.h"
+
+using namespace tet2spline;
+
+namespace {
+
+// The block of the cotangent stiffness over the vertices not on the boundary
+// (symmetric positive definite).
+Eigen::SparseMatrix<double> interiorBlock(const Eigen::MatrixX3d& V, const TetMesh& m) {
+  const Eigen::SparseMatrix<double> L = cotangentStiffness(V, m.T);
+  std::vector<int> index(static_cast<size_t>(V.rows()), 0);
+  const Eigen::MatrixX3i F = boundaryFaces(m);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) index[static_cast<size_t>(F(f, k))] = -1;
+  int n = 0;
+  for (auto& i : index)
+    if (i == 0) i = n++;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (Eigen::Index j = 0; j < L.outerSize(); ++j)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, j); it; ++it)
+      if (index[static_cast<size_t>(it.row())] >= 0 && index[static_cast<size_t>(j)] >= 0)
+        entries.emplace_back(index[static_cast<size_t>(it.row())], index[static_cast<size_t>(j)], it.value());
+  Eigen::SparseMatrix<double> A(n, n);
+  A.setFromTriplets(entries.begin(), entries.end());
+  return A;
+}
+
+}  // namespace
+
+TEST(SpdSolver, RefactorizingTheSamePatternGivesTheBitsOfAFreshFactorisation) {
+  const TetMesh m = tetrahedralize(readSurface(t2stest::cgalMesh("blobby")), {}, "blobby");
+  // Two geometries of the same tets (the second sheared and stretched, so
+  // the cotangent weights change): the same pattern, other values.
+  Eigen::Matrix3d M;
+  M << 1.3, 0.2, 0.0, 0.0, 0.8, 0.1, 0.0, 0.0, 1.1;
+  const Eigen::MatrixX3d moved = m.V * M;
+  ASSERT_EQ(countNonPositiveTets(moved, m.T), 0);
+  const Eigen::SparseMatrix<double> A = interiorBlock(m.V, m), B = interiorBlock(moved, m);
+  ASSERT_GT(A.rows(), 1000);
+  ASSERT_EQ(A.nonZeros(), B.nonZeros());
+  ASSERT_GT((A - B).norm(), 0.0);
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Random(A.rows(), 3);
+
+  detail::SpdSolver reused, fresh;
+  ASSERT_TRUE(reused.compute(A));
+  ASSERT_TRUE(reused.refactorize(B));
+  ASSERT_TRUE(fresh.compute(B));
+  EXPECT_EQ(reused.name(), "cholmod");
+  const Eigen::MatrixXd x = reused.solve(rhs), y = fresh.solve(rhs);
+  EXPECT_EQ((x - y).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_LT((B * x - rhs).norm(), 1e-8 * rhs.norm());
+
+  // Back to A: still A's solution, not B's.
+  ASSERT_TRUE(reused.refactorize(A));
+  EXPECT_LT((A * reused.solve(rhs) - rhs).norm(), 1e-8 * rhs.norm());
+
+  // Without an analysis, or for a matrix of another size, it factorises afresh.
+  detail::SpdSolver first;
+  ASSERT_TRUE(first.refactorize(B));
+  EXPECT_EQ((first.solve(rhs) - y).cwiseAbs().maxCoeff(), 0.0);
+  const Eigen::SparseMatrix<double> smaller = B.topLeftCorner(B.rows() / 2, B.cols() / 2);
+  ASSERT_TRUE(reused.refactorize(smaller));
+  const Eigen::MatrixXd r = rhs.topRows(smaller.rows());
+  EXPECT_LT((smaller * reused.solve(r) - r).norm(), 1e-8 * r.norm());
+}
