@@ -131,7 +131,6 @@ Eigen::MatrixXd dirichletSolve(const Eigen::SparseMatrix<double>& A, const std::
   return X;
 }
 
-// Inverse stereographic projection from the north pole: ∞ ↦ (0,0,1).
 // Per-element loops (the area correction's line search runs them 26 times a
 // step) on both cores; sums stay sequential, so the results are the same
 // bits as one core's. bunny00's shell, whole spherical map (machine
@@ -144,6 +143,7 @@ void forEachIndex(Eigen::Index n, const Body& body) {
   });
 }
 
+// Inverse stereographic projection from the north pole: ∞ ↦ (0,0,1).
 Eigen::MatrixX3d fromNorthPlane(const Eigen::MatrixXd& z) {
   Eigen::MatrixX3d S(z.rows(), 3);
   forEachIndex(z.rows(), [&](Eigen::Index i) {
@@ -392,11 +392,11 @@ AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, cons
   const std::vector<int> fixed = {F(p, 0), F(p, 1), F(p, 2)};
   // Every step's free block has the same pattern (positive weights on the
   // same edges): one symbolic analysis serves them all, and the maps are the
-  // same bits. Measured on bunny00's shell (113k vertices, 19 steps, machine
-  // otherwise idle): the steps' solves 11.6 -> 7.8 s (a fresh analysis, AMD
-  // ordering and workspace, took 0.6 s of each step's 0.8 s; the numeric
-  // factorisation of the 3.2M-entry factor is the 0.4 s left; METIS or
-  // CHOLMOD's nested dissection orderings give a factor only 10% smaller).
+  // same bits. Measured on bunny00's shell (113k vertices, machine otherwise
+  // idle): the steps' solves took 11.6 s with an analysis (AMD ordering,
+  // workspace) each, 7.8 s sharing one. What is left is the numeric
+  // factorisation (3.2M entries in the factor); METIS or CHOLMOD's nested
+  // dissection orderings make that factor only 10% smaller.
   detail::SpdSolver solver;
   // One reweighted Tutte step from the plane z with weights `soft`: the new
   // map on the sphere (not checked for flips here), or empty if the solve failed.
