@@ -113,7 +113,9 @@ void writeRunHtml(const json& report, const ParamResult* param, const spline::BS
                                                      {"angle distortion (max)", "sphere.angle_distortion_max"},
                                                      {"inverted before untangling", "ball.inverted_tets_before_untangling"},
                                                      {"inverted tets", "ball.inverted_tets"},
-                                                     {"harmonic residual", "ball.harmonic_residual"}}));
+                                                     {"harmonic residual", "ball.harmonic_residual"},
+                                                     {"volume ratio p1 (transport's start)", "ball.volume_ratio.p1"},
+                                                     {"volume ratio p99 (transport's start)", "ball.volume_ratio.p99"}}));
   h.sections.push_back(section(report, "Optimal transport", {{"Newton iterations", "ot.iterations"},
                                                               {"max relative mass error", "ot.max_relative_mass_error"},
                                                               {"linear solver", "ot.linear_solver"}}));

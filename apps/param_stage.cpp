@@ -90,6 +90,9 @@ void addParamReport(json& j, const ParamResult& r) {
   setPath(j, "ball.harmonic_residual", r.ball.harmonicResidual);
   setPath(j, "ball.boundary_slid", r.ball.boundarySlid);
   setPath(j, "ball.boundary_max_distance", r.ballBoundaryMaxDistance);
+  setPath(j, "ball.volume_ratio", json{{"p1", r.ballVolumeRatio.p1}, {"p50", r.ballVolumeRatio.p50},
+                                       {"p99", r.ballVolumeRatio.p99}, {"min", r.ballVolumeRatio.min},
+                                       {"max", r.ballVolumeRatio.max}});
   if (r.ot.ran) {
     setPath(j, "ot.iterations", r.ot.iterations);
     setPath(j, "ot.max_relative_mass_error", r.ot.maxRelativeMassError);

@@ -635,6 +635,20 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
                   " relative); boundary vertices projected radially onto the sphere";
     r.targetVolume = weighted * (r.domainVolume / totalWeighted);
     r.timings.measure = secondsSince(t0);
+    {
+      // The transport's start against the measure (ParamResult::ballVolumeRatio).
+      Eigen::VectorXd ballVolume(nt);
+      for (Eigen::Index t = 0; t < nt; ++t) ballVolume(t) = signedVolume(r.ballU, mesh.T, t);
+      const double ballTotal = ballVolume.sum(), targetTotal = r.targetVolume.sum();
+      std::vector<double> ratios(static_cast<size_t>(nt));
+      for (Eigen::Index t = 0; t < nt; ++t)
+        ratios[static_cast<size_t>(t)] = (ballVolume(t) / ballTotal) / (r.targetVolume(t) / targetTotal);
+      r.ballVolumeRatio.p1 = percentile(ratios, 0.01);
+      r.ballVolumeRatio.p50 = percentile(ratios, 0.5);
+      r.ballVolumeRatio.p99 = percentile(ratios, 0.99);
+      r.ballVolumeRatio.min = *std::min_element(ratios.begin(), ratios.end());
+      r.ballVolumeRatio.max = *std::max_element(ratios.begin(), ratios.end());
+    }
 
     // The centre of Ω, from which both domains are star-shaped: boundary
     // triangles are flipped when orient3d(apex, a, b, c) <= 0.

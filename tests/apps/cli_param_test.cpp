@@ -3,9 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
 #include <fstream>
+#include <vector>
 #include <nlohmann/json.hpp>
 
+#include "../param/test_shapes.h"
 #include "cli_runner.h"
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/topology.h"
@@ -56,6 +60,32 @@ TEST(CliParam, HarmonicBallMapWithoutTransport) {
   ASSERT_EQ(U->values.cols(), 3);
   EXPECT_EQ(tet2spline::countNonPositiveTets(Eigen::MatrixX3d(U->values), m.T), 0);
   EXPECT_LE(U->values.rowwise().norm().maxCoeff(), 1 + 1e-12);
+  // ball.volume_ratio: per tet, its share of the ball map's volume over its
+  // share of the solid's (the target without densities), recomputed here
+  // from the map the file holds.
+  {
+    const Eigen::Index nt = m.T.rows();
+    std::vector<double> ball(static_cast<size_t>(nt)), solid(static_cast<size_t>(nt)), ratio;
+    double ballSum = 0, solidSum = 0;
+    const Eigen::MatrixX3d mapped = U->values;
+    for (Eigen::Index t = 0; t < nt; ++t) {
+      ballSum += ball[static_cast<size_t>(t)] = t2stest::tetVolume(mapped, m.T, t);
+      solidSum += solid[static_cast<size_t>(t)] = t2stest::tetVolume(m.V, m.T, t);
+    }
+    for (Eigen::Index t = 0; t < nt; ++t)
+      ratio.push_back((ball[static_cast<size_t>(t)] / ballSum) / (solid[static_cast<size_t>(t)] / solidSum));
+    std::sort(ratio.begin(), ratio.end());
+    auto at = [&](double p) { return ratio[static_cast<size_t>(std::floor(p * static_cast<double>(nt - 1) + 0.5))]; };
+    const json& v = j["ball"]["volume_ratio"];
+    EXPECT_NEAR(v["p1"].get<double>(), at(0.01), 1e-9 * at(0.01));
+    EXPECT_NEAR(v["p50"].get<double>(), at(0.5), 1e-9 * at(0.5));
+    EXPECT_NEAR(v["p99"].get<double>(), at(0.99), 1e-9 * at(0.99));
+    EXPECT_NEAR(v["min"].get<double>(), ratio.front(), 1e-9 * std::abs(ratio.front()));
+    EXPECT_NEAR(v["max"].get<double>(), ratio.back(), 1e-9 * ratio.back());
+    EXPECT_GT(ratio.front(), 0);
+    EXPECT_LT(at(0.01), 1);  // a harmonic map does not preserve volume
+    EXPECT_GT(at(0.99), 1);
+  }
   // --mapped writes the mesh at U with the physical positions as X.
   ASSERT_EQ(runCli("param " + q(t2stest::cgalMesh("blob-closed")) + " -o " + q(mapped) +
                        " --domain ball --no-transport -q --mapped",
