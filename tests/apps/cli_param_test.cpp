@@ -67,9 +67,9 @@ TEST(CliParam, HarmonicBallMapWithoutTransport) {
     const Eigen::Index nt = m.T.rows();
     std::vector<double> ball(static_cast<size_t>(nt)), solid(static_cast<size_t>(nt)), ratio;
     double ballSum = 0, solidSum = 0;
-    const Eigen::MatrixX3d mapped = U->values;
+    const Eigen::MatrixX3d ballMap = U->values;
     for (Eigen::Index t = 0; t < nt; ++t) {
-      ballSum += ball[static_cast<size_t>(t)] = t2stest::tetVolume(mapped, m.T, t);
+      ballSum += ball[static_cast<size_t>(t)] = t2stest::tetVolume(ballMap, m.T, t);
       solidSum += solid[static_cast<size_t>(t)] = t2stest::tetVolume(m.V, m.T, t);
     }
     for (Eigen::Index t = 0; t < nt; ++t)
