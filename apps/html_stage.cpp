@@ -167,7 +167,7 @@ void writeRunHtml(const json& report, const ParamResult* param, const spline::BS
     hist.xLabel = "volume ratio";
     hist.values = ratios;
     hist.rangeMin = 0;
-    hist.rangeMax = std::max(2.0, param->param.volumeRatioP99);
+    hist.rangeMax = std::max(2.0, param->param.volumeRatio.p99);
     hist.hasReference = true;
     hist.reference = 1;
     hist.referenceLabel = "target";

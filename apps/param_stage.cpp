@@ -64,6 +64,12 @@ ParamOptions ParamStageOptions::toParamOptions() const {
   return o;
 }
 
+namespace {
+json ratiosJson(const ParamResult::VolumeRatios& v) {
+  return json{{"p1", v.p1}, {"p50", v.p50}, {"p99", v.p99}, {"min", v.min}, {"max", v.max}};
+}
+}  // namespace
+
 void addParamReport(json& j, const ParamResult& r) {
   for (const std::string& w : r.warnings) j["warnings"].push_back(w);
   setPath(j, "param.chords_split", r.chordsSplit);
@@ -90,9 +96,7 @@ void addParamReport(json& j, const ParamResult& r) {
   setPath(j, "ball.harmonic_residual", r.ball.harmonicResidual);
   setPath(j, "ball.boundary_slid", r.ball.boundarySlid);
   setPath(j, "ball.boundary_max_distance", r.ballBoundaryMaxDistance);
-  setPath(j, "ball.volume_ratio", json{{"p1", r.ballVolumeRatio.p1}, {"p50", r.ballVolumeRatio.p50},
-                                       {"p99", r.ballVolumeRatio.p99}, {"min", r.ballVolumeRatio.min},
-                                       {"max", r.ballVolumeRatio.max}});
+  setPath(j, "ball.volume_ratio", ratiosJson(r.ballVolumeRatio));
   if (r.ot.ran) {
     setPath(j, "ot.iterations", r.ot.iterations);
     setPath(j, "ot.max_relative_mass_error", r.ot.maxRelativeMassError);
@@ -117,9 +121,7 @@ void addParamReport(json& j, const ParamResult& r) {
                                                 {"interior_moves", r.param.interiorSmoothingMoves},
                                                 {"refused", r.param.boundarySmoothingRefused},
                                                 {"rms_move", r.param.boundarySmoothingRms}});
-  setPath(j, "param.volume_ratio", json{{"p1", r.param.volumeRatioP1}, {"p50", r.param.volumeRatioP50},
-                                        {"p99", r.param.volumeRatioP99}, {"min", r.param.volumeRatioMin},
-                                        {"max", r.param.volumeRatioMax}});
+  setPath(j, "param.volume_ratio", ratiosJson(r.param.volumeRatio));
   setPath(j, "param.misplaced_volume", r.param.misplacedVolume);
   json regions = json::array();
   for (const RegionFigures& g : r.regions)
@@ -182,8 +184,8 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   if (r.chordsSplit) line << " (" << r.chordsSplit << " chords split)";
   line << "; ball map " << r.ball.invertedTets << " inverted";
   if (r.ot.ran) line << "; OT " << r.ot.iterations << " Newton iterations, mass error " << r.ot.maxRelativeMassError;
-  line << "; " << r.param.invertedTets << " inverted tets, volume ratio p1/p50/p99 " << r.param.volumeRatioP1 << '/'
-       << r.param.volumeRatioP50 << '/' << r.param.volumeRatioP99 << " in " << r.timings.total << " s";
+  line << "; " << r.param.invertedTets << " inverted tets, volume ratio p1/p50/p99 " << r.param.volumeRatio.p1 << '/'
+       << r.param.volumeRatio.p50 << '/' << r.param.volumeRatio.p99 << " in " << r.timings.total << " s";
   log.stage("param", line.str());
   if (!r.status.ok) {
     if (const char* dump = std::getenv("T2S_FAILED_REPORT")) writeJson(report, dump);  // diagnostics of a failed run

@@ -40,6 +40,17 @@ double percentile(std::vector<double> values, double p) {
   return values[k];
 }
 
+ParamResult::VolumeRatios summarise(std::vector<double> ratios) {
+  ParamResult::VolumeRatios s;
+  if (ratios.empty()) return s;
+  s.p1 = percentile(ratios, 0.01);
+  s.p50 = percentile(ratios, 0.5);
+  s.p99 = percentile(ratios, 0.99);
+  s.min = *std::min_element(ratios.begin(), ratios.end());
+  s.max = *std::max_element(ratios.begin(), ratios.end());
+  return s;
+}
+
 // ---- cube boundary -------------------------------------------------------
 // Place of a boundary vertex on the cube: `locks` has bit k when coordinate k
 // sits on a face (0 or 1); one bit = face, two = edge, three = corner.
@@ -643,11 +654,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       std::vector<double> ratios(static_cast<size_t>(nt));
       for (Eigen::Index t = 0; t < nt; ++t)
         ratios[static_cast<size_t>(t)] = (ballVolume(t) / ballTotal) / (r.targetVolume(t) / targetTotal);
-      r.ballVolumeRatio.p1 = percentile(ratios, 0.01);
-      r.ballVolumeRatio.p50 = percentile(ratios, 0.5);
-      r.ballVolumeRatio.p99 = percentile(ratios, 0.99);
-      r.ballVolumeRatio.min = *std::min_element(ratios.begin(), ratios.end());
-      r.ballVolumeRatio.max = *std::max_element(ratios.begin(), ratios.end());
+      r.ballVolumeRatio = summarise(std::move(ratios));
     }
 
     // The centre of Ω, from which both domains are star-shaped: boundary
@@ -950,17 +957,13 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       r.parametricVolume(t) = signedVolume(r.U, mesh.T, t);
       ratios[static_cast<size_t>(t)] = r.parametricVolume(t) / r.targetVolume(t);
     }
-    r.param.volumeRatioP1 = percentile(ratios, 0.01);
-    r.param.volumeRatioP50 = percentile(ratios, 0.5);
-    r.param.volumeRatioP99 = percentile(ratios, 0.99);
+    r.param.volumeRatio = summarise(std::move(ratios));
     {
       const bool cube = options.domain == ParamDomain::Cube;
       r.param.misplacedVolume = misplacedFraction(r.U, mesh.T, r.parametricVolume, r.targetVolume,
                                                   Eigen::Vector3d::Constant(cube ? 0.0 : -1.0), Eigen::Vector3d::Constant(1.0),
                                                   kMisplacementCells);
     }
-    r.param.volumeRatioMin = *std::min_element(ratios.begin(), ratios.end());
-    r.param.volumeRatioMax = *std::max_element(ratios.begin(), ratios.end());
     std::map<int, RegionFigures> regions;
     std::map<int, double> regionWeighted;
     const double totalParametric = r.parametricVolume.sum();

@@ -54,7 +54,7 @@ TEST_P(ParamRealData, ValidMeasurePreservingParameterization) {
   std::cout << name << " " << domainName(domain) << ": " << r.mesh.V.rows() << " vertices, "
             << r.mesh.T.rows() << " tets; OT " << r.ot.iterations << " iterations, error " << r.ot.maxRelativeMassError
             << "; inverted before final untangling " << r.param.invertedTetsBeforeUntangling << "; volume ratio p1/p50/p99 "
-            << r.param.volumeRatioP1 << "/" << r.param.volumeRatioP50 << "/" << r.param.volumeRatioP99 << "; seconds OT "
+            << r.param.volumeRatio.p1 << "/" << r.param.volumeRatio.p50 << "/" << r.param.volumeRatio.p99 << "; seconds OT "
             << r.timings.transport << " final untangle " << r.timings.finalUntangle << " total " << r.timings.total
             << std::endl;
 }
@@ -95,8 +95,8 @@ TEST_P(ParamSpoolWithoutSlivers, ValidMeasurePreservingParameterization) {
   EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.05 * r.domainVolume);
   std::cout << "spool (15 degrees)" << " " << domainName(domain) << ": " << r.mesh.V.rows()
             << " vertices; inverted before final untangling " << r.param.invertedTetsBeforeUntangling
-            << "; volume ratio p1/p50/p99 " << r.param.volumeRatioP1 << "/" << r.param.volumeRatioP50 << "/"
-            << r.param.volumeRatioP99 << "; seconds final untangle " << r.timings.finalUntangle << " total "
+            << "; volume ratio p1/p50/p99 " << r.param.volumeRatio.p1 << "/" << r.param.volumeRatio.p50 << "/"
+            << r.param.volumeRatio.p99 << "; seconds final untangle " << r.timings.finalUntangle << " total "
             << r.timings.total << std::endl;
 }
 
@@ -133,7 +133,7 @@ TEST_P(ParamSolidWithVoid, ValidWithTheVoidFilled) {
     EXPECT_EQ(voids, 1);
     std::cout << "block_with_void" << " " << domainName(domain) << ", void density "
               << voidDensity << ": OT " << r.ot.iterations << " iterations; volume ratio p1/p50/p99 "
-              << r.param.volumeRatioP1 << "/" << r.param.volumeRatioP50 << "/" << r.param.volumeRatioP99
+              << r.param.volumeRatio.p1 << "/" << r.param.volumeRatio.p50 << "/" << r.param.volumeRatio.p99
               << "; total " << r.timings.total << " s" << std::endl;
   }
 }
@@ -163,8 +163,8 @@ TEST_P(ParamMorphFallback, ValidWhereTheUntanglingFails) {
                          [](const std::string& w) { return w.find("param.morph") != std::string::npos; }),
             r.warnings.end());
   std::cout << name << " " << domainName(domain) << ": morph distance " << r.param.morphDistance
-            << " target edges (max " << r.param.morphMaxDistance << "); volume ratio p1/p50/p99 " << r.param.volumeRatioP1
-            << "/" << r.param.volumeRatioP50 << "/" << r.param.volumeRatioP99 << "; seconds final untangle "
+            << " target edges (max " << r.param.morphMaxDistance << "); volume ratio p1/p50/p99 " << r.param.volumeRatio.p1
+            << "/" << r.param.volumeRatio.p50 << "/" << r.param.volumeRatio.p99 << "; seconds final untangle "
             << r.timings.finalUntangle << " morph " << r.timings.morph << " total " << r.timings.total << std::endl;
 }
 

@@ -164,7 +164,7 @@ TEST(Parameterize, UnchangedUnderRigidMotionAndScaling) {
   ASSERT_TRUE(a.status.ok && b.status.ok);
   // The spherical map is normalised up to a rotation: compare intrinsic figures.
   EXPECT_NEAR(a.regions[1].achievedVolumeFraction, b.regions[1].achievedVolumeFraction, 1e-3);
-  EXPECT_NEAR(a.param.volumeRatioP50, b.param.volumeRatioP50, 1e-2);
+  EXPECT_NEAR(a.param.volumeRatio.p50, b.param.volumeRatio.p50, 1e-2);
 }
 
 TEST(Parameterize, WithoutTransportTheCubeIsRefused) {

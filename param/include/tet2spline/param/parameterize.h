@@ -230,6 +230,10 @@ struct RegionFigures {
 };
 
 struct ParamResult {
+  /// Percentiles and extremes of a per-tet volume ratio.
+  struct VolumeRatios {
+    double p1 = 0, p50 = 0, p99 = 0, min = 0, max = 0;
+  };
   TetMesh mesh;                        ///< the input after step 1 (more vertices and tets if chords were split)
   Eigen::MatrixX3d U;                  ///< #V × 3: parameter of every vertex of `mesh`
   Eigen::MatrixX3d ballU;              ///< #V × 3: the harmonic ball map
@@ -251,9 +255,7 @@ struct ParamResult {
   /// move). Values far below 1 are cells the transport has to open from
   /// almost nothing: bunny00's ears (23.6k tets below 10⁻³ before the
   /// ball map's untangling) are why its transport starts with steps of 2⁻¹³.
-  struct VolumeRatios {
-    double p1 = 0, p50 = 0, p99 = 0, min = 0, max = 0;
-  } ballVolumeRatio;
+  VolumeRatios ballVolumeRatio;
   struct Transport {
     bool ran = false;
     int iterations = 0;
@@ -269,8 +271,7 @@ struct ParamResult {
     int invertedTets = 0;              ///< exact, at the end
     int invertedTetsBeforeUntangling = 0;
     double boundaryMaxDistance = 0;    ///< largest distance of a boundary vertex to ∂Ω
-    double volumeRatioP1 = 0, volumeRatioP50 = 0, volumeRatioP99 = 0;  ///< parametric / target, per tet
-    double volumeRatioMin = 0, volumeRatioMax = 0;
+    VolumeRatios volumeRatio;          ///< parametric / target, per tet
     /// The measure at the scale of spline elements: misplacedVolumeFraction
     /// over 8³ cells of Ω's bounding box, with the target volumes.
     double misplacedVolume = 0;
