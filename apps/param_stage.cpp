@@ -31,6 +31,10 @@ void ParamStageOptions::addTo(CLI::App* cmd) {
                   "cube: transport sites from the ball map stretched towards the cube by this exponent "
                   "(0 = the inscribed ball; larger is faster on large meshes but places the measure less exactly)")
       ->check(CLI::Range(0.0, 1.0))->capture_default_str();
+  cmd->add_option("--cube-sites", cubeSites,
+                  "cube: transport sites from the ball map by the radial stretch (--site-stretch) or by a "
+                  "volume-preserving map of the ball onto the cube")
+      ->check(CLI::IsMember({"stretch", "equal-volume"}))->capture_default_str();
   cmd->add_option("--interior-smoothing", interiorSmoothing,
                   "sweeps of smoothing of the interior after the boundary's (0 = none)")
       ->check(CLI::Range(0, 100))->capture_default_str();
@@ -43,6 +47,7 @@ ParamOptions ParamStageOptions::toParamOptions() const {
   o.boundarySmoothing.sweeps = boundarySmoothing;
   o.boundarySmoothing.interiorSweeps = interiorSmoothing;
   o.cubeSiteStretch = siteStretch;
+  o.cubeSites = cubeSites == "equal-volume" ? ParamOptions::CubeSites::EqualVolume : ParamOptions::CubeSites::Stretch;
   for (const std::string& d : densities) {
     const size_t eq = d.find('=');
     std::istringstream rs(d.substr(0, eq == std::string::npos ? 0 : eq)), ws(eq == std::string::npos ? "" : d.substr(eq + 1));
@@ -178,6 +183,14 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   ParamResult r = parameterize(mesh, po);
   addParamReport(report, r);
   setPath(report, "param.untangler", options.untangler);
+  if (options.domain == "cube" && r.ot.ran) {
+    std::ostringstream sites;
+    if (options.cubeSites == "equal-volume")
+      sites << "equal-volume";
+    else
+      sites << "stretch " << options.siteStretch;
+    setPath(report, "param.cube_sites", sites.str());
+  }
   for (const std::string& w : r.warnings) log.stage("warning", w);
   std::ostringstream line;
   line << (r.ot.ran ? options.domain : std::string("ball (harmonic)")) << ", " << r.mesh.numVertices() << " vertices";

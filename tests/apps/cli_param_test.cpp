@@ -30,7 +30,8 @@ TEST(CliParam, BadOptionsExitWithStatus2BeforeAnyWork) {
        {"param " + in + " -o x.vtu --domain disk", "param " + in + " -o x.vtu --density 2",
         "param " + in + " -o x.vtu --density a=4", "param " + in + " -o x.vtu --density 2=-1",
         "param " + in + " -o x.vtu --no-transport --domain cube", "param " + in + " -o x.mesh",
-        "param " + in + " -o x.vtu --density 7=2" /* no region 7 */, "param " + in + " -o x.vtu --untangler bfgs"}) {
+        "param " + in + " -o x.vtu --density 7=2" /* no region 7 */, "param " + in + " -o x.vtu --untangler bfgs",
+        "param " + in + " -o x.vtu --cube-sites sphere"}) {
     const auto r = runCli(args + " -q", dir);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.errLines(), 1) << r.err;
@@ -109,6 +110,28 @@ TEST(CliParam, NewtonUntanglerGivesAPositiveParameterizationOnBothDomains) {
     EXPECT_EQ(j["param"]["inverted_tets"], 0);
     EXPECT_GT(j["param"]["inverted_tets_before_untangling"].get<int>(), 0) << "nothing was untangled";
     EXPECT_LT(j["param"]["boundary_max_distance"].get<double>(), 1e-12);
+    const tet2spline::TetMesh m = tet2spline::readTetMesh(out.string());
+    const tet2spline::Field* U = m.pointField("U");
+    ASSERT_NE(U, nullptr);
+    EXPECT_EQ(tet2spline::countNonPositiveTets(Eigen::MatrixX3d(U->values), m.T), 0);
+  }
+}
+
+// --cube-sites: the report says which sites the transport started from, and
+// the equal-volume sites give a valid map with the boundary on the cube.
+TEST(CliParam, CubeSitesAreReportedAndEqualVolumeSitesGiveAValidMap) {
+  const auto dir = t2stest::scratchDir("cli_param_cube_sites");
+  for (const std::string sites : {"stretch", "equal-volume"}) {
+    const auto out = dir / (sites + ".vtu"), rep = dir / (sites + ".json");
+    const auto r = runCli("param " + q(t2stest::cgalMesh("blob-closed")) + " -o " + q(out) + " --cube-sites " + sites +
+                              " -q --report " + q(rep),
+                          dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const json j = t2stest::readJson(rep);
+    EXPECT_EQ(j["param"]["cube_sites"], sites == "stretch" ? "stretch 0" : "equal-volume");
+    EXPECT_EQ(j["param"]["inverted_tets"], 0);
+    EXPECT_LT(j["param"]["boundary_max_distance"].get<double>(), 1e-12);
+    EXPECT_LE(j["ot"]["max_relative_mass_error"].get<double>(), 1e-6);
     const tet2spline::TetMesh m = tet2spline::readTetMesh(out.string());
     const tet2spline::Field* U = m.pointField("U");
     ASSERT_NE(U, nullptr);
