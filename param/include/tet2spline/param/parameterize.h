@@ -125,26 +125,16 @@ struct ParamOptions {
   /// sphere's sites are not coplanar), cubeSiteStretch unused. The sites
   /// then hold the ball map's own measure, neither the corners left empty
   /// (α = 0) nor the diagonals diluted (α > 0), and the transport corrects
-  /// only the ball map's distortion. Measured (`convert` at the defaults
-  /// otherwise, one run each). Figures at α = 0 (Stretch, the default) -> EqualVolume;
-  ///   "inverted" is the composition's count before the untangling:
-  ///                 OT iterations  p1/p50/p99                          misplaced      inverted        fit RMS (16³)
-  ///   blobby        10 -> 7        0.49/0.98/1.89 -> 0.62/1.02/2.04    0.053 -> 0.057   529 -> 715    0.00118 -> 0.00096
-  ///   retinal       15 -> 13       0.45/1.02/3.04 -> 0.51/1.02/2.61    0.037 -> 0.045  4777 -> 4883   0.00240 -> 0.00210
-  ///   homer         17 -> 18       0.35/1.00/3.65 -> 0.35/1.01/3.27    0.041 -> 0.055   21k -> 21k    0.00571 -> 0.00565
-  ///   bunny00       23 -> 16       0.27/1.03/2.71 -> 0.28/1.01/2.21    0.024 -> 0.028   41k -> 40k    0.00517 -> 0.00384
-  ///   two_material  17 -> 13       0.64/1.01/2.10 -> 0.67/1.03/2.11    0.021 -> 0.025   471 -> 817    0.00330 -> 0.00275
-  ///   (--density 2=4; region 2 at 0.1471 -> 0.1486 of the cube, target 0.1485)
-  /// bunny00's fit error falls 2.23 times from 8³ to 16³ elements (0.00858 ->
-  /// 0.00384; 1.98 at α = 0), its transport takes 19 s instead of 27 s, but
-  /// its final untangling is as slow (305 s: the ears, README). The sites
-  /// give the fit a smoother map (no transport into the corners), but the
-  /// composition inverts more tets and the measure on 8³ cells is placed
-  /// less exactly (two_material: the 8³ cells along the faces hold 1.2% of
-  /// the volume too little, those along the edges 0.8% too much; at α = 0
-  /// 0.4% and 0.3%), and the block's void gets 0.0650 of
-  /// the cube for a target of 0.0612 (0.0632 at α = 0). So it is not the
-  /// default.
+  /// only the ball map's distortion. Measured (README, medians of five runs
+  /// whose sites differ in their last bits; `convert`, Stretch at α = 0 ->
+  /// EqualVolume): fit RMS at 16³ blobby 0.00118 -> 0.00095, retinal 0.00262
+  /// -> 0.00210, two_material 0.00307 -> 0.00253, but the CAD block with a
+  /// void 0.00292 -> 0.00382; misplaced volume retinal 0.037 -> 0.045, block
+  /// 0.040 -> 0.042, the others within their spread; the composition's
+  /// inversions blobby 529 -> 715, two_material 471 -> 817. bunny00 (one
+  /// run): transport 27 -> 19 s, fit RMS 8³ -> 16³ 0.00858 -> 0.00384 (2.23
+  /// times; 1.98 at α = 0), final untangling as slow (305 s). A trade, so
+  /// not the default.
   enum class CubeSites { Stretch, EqualVolume };
   CubeSites cubeSites = CubeSites::Stretch;
   /// One OT site per region where regions meet (parameterize.cpp buildSites):
