@@ -1,6 +1,7 @@
 // Equal-volume map from the unit ball onto [0,1]³ (cube_map.h).
 #include "cube_map.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 

@@ -97,20 +97,30 @@ TEST(Parameterize, MisplacedVolumeIsZeroForTheMeasureAndAQuarterForASquaredCoord
   EXPECT_THROW(misplacedVolumeFraction(U, m.T, target, lo, hi, 0), Error);
 }
 
+namespace {
+// twoRegionSphere() onto the cube with region 2 at density 4: a valid map
+// with the regions' volumes.
+ParamResult expectValidTwoRegionCube(const TetMesh& mesh, ParamOptions o) {
+  o.domain = ParamDomain::Cube;
+  o.measure.regionDensity[2] = 4;
+  ParamResult r = parameterize(mesh, o);
+  expectValidParameterization(r, ParamDomain::Cube);
+  EXPECT_EQ(r.regions.size(), 2u);
+  for (const RegionFigures& g : r.regions)
+    EXPECT_NEAR(g.achievedVolumeFraction, g.targetVolumeFraction, 0.005) << "region " << g.id;
+  EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.02 * r.domainVolume);
+  return r;
+}
+}  // namespace
+
 // The cube's sites stretched from the ball towards the cube (cubeSiteStretch):
 // still a valid map with the regions' volumes; outside [0, 1] refused.
 TEST(Parameterize, StretchedCubeSitesKeepTheMapValidAndTheRegionFractions) {
   const TetMesh mesh = twoRegionSphere();
   ParamOptions o;
-  o.domain = ParamDomain::Cube;
-  o.measure.regionDensity[2] = 4;
   o.cubeSiteStretch = 0.9;
-  const ParamResult r = parameterize(mesh, o);
-  expectValidParameterization(r, ParamDomain::Cube);
-  ASSERT_EQ(r.regions.size(), 2u);
-  for (const RegionFigures& g : r.regions)
-    EXPECT_NEAR(g.achievedVolumeFraction, g.targetVolumeFraction, 0.005) << "region " << g.id;
-  EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.02 * r.domainVolume);
+  expectValidTwoRegionCube(mesh, o);
+  o.domain = ParamDomain::Cube;
   for (const double bad : {-0.1, 1.5, std::nan("")}) {
     o.cubeSiteStretch = bad;
     EXPECT_THROW(parameterize(mesh, o), Error) << bad;
@@ -119,22 +129,16 @@ TEST(Parameterize, StretchedCubeSitesKeepTheMapValidAndTheRegionFractions) {
 
 // The cube's sites placed by the volume-preserving map of the ball onto the
 // cube (CubeSites::EqualVolume): a valid map with the regions' volumes, and
-// the sites need fewer Newton steps than from the inscribed ball (whose
-// transport must carry the sphere's sites out into the cube's corners).
+// here the sites need fewer Newton steps than from the inscribed ball, whose
+// transport must carry the sphere's sites out into the cube's corners (so
+// on blobby, retinal, two_material, the block with a void and bunny00, not
+// on homer: 18 against 17).
 TEST(Parameterize, EqualVolumeCubeSitesKeepTheMapValidAndTheRegionFractions) {
   const TetMesh mesh = twoRegionSphere();
   ParamOptions o;
-  o.domain = ParamDomain::Cube;
-  o.measure.regionDensity[2] = 4;
   o.cubeSites = ParamOptions::CubeSites::EqualVolume;
-  const ParamResult r = parameterize(mesh, o);
-  expectValidParameterization(r, ParamDomain::Cube);
-  ASSERT_EQ(r.regions.size(), 2u);
-  for (const RegionFigures& g : r.regions)
-    EXPECT_NEAR(g.achievedVolumeFraction, g.targetVolumeFraction, 0.005) << "region " << g.id;
-  EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.02 * r.domainVolume);
-  o.cubeSites = ParamOptions::CubeSites::Stretch;
-  const ParamResult inscribed = parameterize(mesh, o);
+  const ParamResult r = expectValidTwoRegionCube(mesh, o);
+  const ParamResult inscribed = expectValidTwoRegionCube(mesh, ParamOptions());
   std::cout << "OT Newton iterations: equal-volume sites " << r.ot.iterations << ", inscribed ball " << inscribed.ot.iterations
             << std::endl;
   EXPECT_LT(r.ot.iterations, inscribed.ot.iterations);
