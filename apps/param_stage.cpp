@@ -48,6 +48,8 @@ ParamOptions ParamStageOptions::toParamOptions() const {
   o.boundarySmoothing.interiorSweeps = interiorSmoothing;
   o.cubeSiteStretch = siteStretch;
   o.cubeSites = cubeSites == "equal-volume" ? ParamOptions::CubeSites::EqualVolume : ParamOptions::CubeSites::Stretch;
+  if (o.cubeSites == ParamOptions::CubeSites::EqualVolume && siteStretch != 0)
+    throw Error(ErrorKind::Usage, "--site-stretch applies to --cube-sites stretch only");
   for (const std::string& d : densities) {
     const size_t eq = d.find('=');
     std::istringstream rs(d.substr(0, eq == std::string::npos ? 0 : eq)), ws(eq == std::string::npos ? "" : d.substr(eq + 1));
@@ -183,12 +185,12 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   ParamResult r = parameterize(mesh, po);
   addParamReport(report, r);
   setPath(report, "param.untangler", options.untangler);
-  if (options.domain == "cube" && r.ot.ran) {
+  if (po.domain == ParamDomain::Cube && r.ot.ran) {
     std::ostringstream sites;
-    if (options.cubeSites == "equal-volume")
+    if (po.cubeSites == ParamOptions::CubeSites::EqualVolume)
       sites << "equal-volume";
     else
-      sites << "stretch " << options.siteStretch;
+      sites << "stretch " << po.cubeSiteStretch;
     setPath(report, "param.cube_sites", sites.str());
   }
   for (const std::string& w : r.warnings) log.stage("warning", w);

@@ -23,7 +23,8 @@ struct ParamStageOptions {
   std::string cubeSites = "stretch";
 
   void addTo(CLI::App* cmd);
-  /// Throws Error(Usage) for a malformed --density.
+  /// Throws Error(Usage) for a malformed --density, or --site-stretch with
+  /// --cube-sites equal-volume.
   ParamOptions toParamOptions() const;
 };
 

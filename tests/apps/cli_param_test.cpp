@@ -31,7 +31,8 @@ TEST(CliParam, BadOptionsExitWithStatus2BeforeAnyWork) {
         "param " + in + " -o x.vtu --density a=4", "param " + in + " -o x.vtu --density 2=-1",
         "param " + in + " -o x.vtu --no-transport --domain cube", "param " + in + " -o x.mesh",
         "param " + in + " -o x.vtu --density 7=2" /* no region 7 */, "param " + in + " -o x.vtu --untangler bfgs",
-        "param " + in + " -o x.vtu --cube-sites sphere"}) {
+        "param " + in + " -o x.vtu --cube-sites sphere",
+        "param " + in + " -o x.vtu --cube-sites equal-volume --site-stretch 0.5"}) {
     const auto r = runCli(args + " -q", dir);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_EQ(r.errLines(), 1) << r.err;
