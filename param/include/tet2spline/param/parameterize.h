@@ -97,7 +97,8 @@ struct ParamOptions {
   /// A stretch trades measure for speed and smoothness. Measured (cube,
   /// `convert` at the defaults; "misplaced" is half the L1 difference between
   /// the parametric and the target volume over a grid of 8³ cells of the cube,
-  /// tets binned by their centroid in U):
+  /// tets binned by their centroid in U; single runs, and misplaced moves by up
+  /// to a third with the sites' last bits, see CubeSites below):
   ///                 α    final untangling  volume ratio p1/p50/p99  misplaced  fit RMS 8³ -> 16³
   ///   bunny00       0    321 s             0.27/1.03/2.71           0.024      0.0102 -> 0.0052 (1.98)
   ///   (767k tets)   0.9   52 s             0.29/1.00/2.26           0.031      0.0086 -> 0.0039 (2.20)
