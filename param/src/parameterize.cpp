@@ -27,6 +27,12 @@ double signedVolume(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, Eigen:
   return (b - a).cross(c - a).dot(d - a) / 6.0;
 }
 
+Eigen::VectorXd signedVolumes(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T) {
+  Eigen::VectorXd v(T.rows());
+  for (Eigen::Index t = 0; t < T.rows(); ++t) v(t) = signedVolume(X, T, t);
+  return v;
+}
+
 std::string formatDouble(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g", v);
@@ -580,9 +586,7 @@ double misplacedVolumeFraction(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i
   if (cells < 1) throw Error(ErrorKind::Input, "misplacedVolumeFraction: cells < 1");
   if (nt > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= U.rows()))
     throw Error(ErrorKind::Input, "misplacedVolumeFraction: a tet's vertex index is out of range");
-  Eigen::VectorXd parametric(nt);
-  for (Eigen::Index t = 0; t < nt; ++t) parametric(t) = signedVolume(U, T, t);
-  return misplacedFraction(U, T, parametric, targetVolumes, lo, hi, cells);
+  return misplacedFraction(U, T, signedVolumes(U, T), targetVolumes, lo, hi, cells);
 }
 
 ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
@@ -661,8 +665,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     r.timings.measure = secondsSince(t0);
     {
       // The transport's start against the measure (ParamResult::ballVolumeRatio).
-      Eigen::VectorXd ballVolume(nt);
-      for (Eigen::Index t = 0; t < nt; ++t) ballVolume(t) = signedVolume(r.ballU, mesh.T, t);
+      const Eigen::VectorXd ballVolume = signedVolumes(r.ballU, mesh.T);
       const double ballTotal = ballVolume.sum(), targetTotal = r.targetVolume.sum();
       std::vector<double> ratios(static_cast<size_t>(nt));
       for (Eigen::Index t = 0; t < nt; ++t)
@@ -679,10 +682,11 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // 4. transport
       t0 = Clock::now();
       Eigen::MatrixX3d y = r.ballU;
-      if (options.domain == ParamDomain::Cube && options.cubeSites == ParamOptions::CubeSites::EqualVolume)
-        for (Eigen::Index v = 0; v < nv; ++v) y.row(v) = equalVolumeSite(y.row(v).transpose());
-      else if (options.domain == ParamDomain::Cube)
-        for (Eigen::Index v = 0; v < nv; ++v) y.row(v) = stretchTowardsCube(y.row(v).transpose(), options.cubeSiteStretch);
+      if (options.domain == ParamDomain::Cube)
+        for (Eigen::Index v = 0; v < nv; ++v)
+          y.row(v) = options.cubeSites == ParamOptions::CubeSites::EqualVolume
+                         ? equalVolumeSite(y.row(v).transpose())
+                         : stretchTowardsCube(y.row(v).transpose(), options.cubeSiteStretch);
       std::vector<int> siteStart;
       Eigen::MatrixX3d sites;
       Eigen::VectorXd masses;
@@ -966,12 +970,9 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       }
       r.param.boundaryMaxDistance = std::max(r.param.boundaryMaxDistance, d);
     }
-    r.parametricVolume.resize(nt);
+    r.parametricVolume = signedVolumes(r.U, mesh.T);
     std::vector<double> ratios(static_cast<size_t>(nt));
-    for (Eigen::Index t = 0; t < nt; ++t) {
-      r.parametricVolume(t) = signedVolume(r.U, mesh.T, t);
-      ratios[static_cast<size_t>(t)] = r.parametricVolume(t) / r.targetVolume(t);
-    }
+    for (Eigen::Index t = 0; t < nt; ++t) ratios[static_cast<size_t>(t)] = r.parametricVolume(t) / r.targetVolume(t);
     r.param.volumeRatio = summarise(std::move(ratios));
     {
       const bool cube = options.domain == ParamDomain::Cube;

@@ -123,7 +123,7 @@ Eigen::MatrixXd dirichletSolve(const Eigen::SparseMatrix<double>& A, const std::
   Aii.setFromTriplets(trip.begin(), trip.end());
   detail::SpdSolver own;
   detail::SpdSolver& solver = reuse ? *reuse : own;
-  if (!(reuse ? solver.refactorize(Aii) : solver.compute(Aii))) return {};
+  if (!solver.refactorize(Aii)) return {};  // (a fresh solver has no analysis: a full factorisation)
   const Eigen::MatrixXd Xi = solver.solve(rhs);
   if (!Xi.allFinite()) return {};
   for (Eigen::Index v = 0; v < n; ++v)
