@@ -14,6 +14,7 @@
 //   tet2spline_bench --data build/testdata fandisk homer --repeat 3 --json bench.json
 //   tet2spline_bench --stage ball bunny00 homer
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -65,7 +66,7 @@ std::string fixed(double v, int digits) {
 
 /// The whole pipeline, one child `convert` per run; a table on stdout.
 int runPipeline(const std::string& cli, const std::string& data, const std::vector<std::string>& models, int repeat,
-                const std::vector<std::string>& extra, nlohmann::json& report) {
+                bool perturb, const std::vector<std::string>& extra, nlohmann::json& report) {
   using namespace tet2spline;
   // Columns: the stages of convert's report (timings.*), in pipeline order.
   const std::vector<std::pair<std::string, std::string>> columns = {
@@ -74,17 +75,28 @@ int runPipeline(const std::string& cli, const std::string& data, const std::vect
       {"fit_checks", "checks"},  {"export", "export"},        {"total", "total"}};
   std::cout << std::left << std::setw(14) << "model" << std::right << std::setw(8) << "verts" << std::setw(9) << "tets";
   for (const auto& c : columns) std::cout << std::setw(8) << c.second;
-  std::cout << std::setw(6) << "OTit" << std::setw(9) << "peakMiB" << "  (median seconds of " << repeat << ")"
+  std::cout << std::setw(6) << "OTit" << std::setw(9) << "peakMiB" << std::setw(14) << "total min-max"
+            << "  (median seconds of " << repeat << (perturb ? " inputs scaled by 1 + k·1e-9" : " runs") << ")"
             << std::endl;
   int status = 0;
   for (const std::string& name : models) {
     try {
       const std::string path = modelPath(data, name);
+      if (perturb) bench::requirePerturbable(path);
       std::vector<bench::PipelineRun> runs;
+      const fs::path copies = fs::temp_directory_path() / ("t2s_bench_inputs_" + std::to_string(::getpid()));
+      fs::create_directories(copies);
       for (int k = 0; k < repeat; ++k) {
-        runs.push_back(bench::runConvert(cli, path, extra));
-        if (runs.back().exitStatus != 0) break;  // a failing model fails every time: do not wait for it again
+        try {
+          runs.push_back(bench::runConvert(cli, perturb ? bench::perturbedCopy(path, k, copies.string()) : path, extra));
+        } catch (...) {
+          fs::remove_all(copies);
+          throw;
+        }
+        // A failing model fails every time: do not wait for it again.
+        if (runs.back().exitStatus != 0) break;
       }
+      fs::remove_all(copies);
       nlohmann::json j = bench::summarize(name, runs);
       report.push_back(j);
       std::cout << std::left << std::setw(14) << name << std::right;
@@ -97,6 +109,7 @@ int runPipeline(const std::string& cli, const std::string& data, const std::vect
       for (const auto& c : columns)
         std::cout << std::setw(8) << (j["timings"].contains(c.first) ? fixed(j["timings"][c.first].get<double>(), 1) : "-");
       std::cout << std::setw(6) << j.value("ot_iterations", 0) << std::setw(9) << fixed(j["peak_rss_mib"].get<double>(), 0)
+                << std::setw(14) << (fixed(j.value("total_min", 0.0), 1) + "-" + fixed(j.value("total_max", 0.0), 1))
                 << std::endl;
       if (j["failed_runs"].get<int>() > 0) status = j.value("exit_status", 5);
     } catch (const Error& e) {
@@ -116,7 +129,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> models;
   int repeat = 3;
   std::string jsonPath, stage = "convert", cli = defaultCli(argv[0]);
-  bool noSplit = false;
+  bool noSplit = false, perturb = false;
   app.add_option("--data", data, "directory holding meshes/<name>.off (the fetched test data)");
   app.add_option("models", models, "model names (e.g. bunny00 homer) or .off paths")->required();
   app.add_option("--repeat", repeat, "runs per model; medians are reported")->check(CLI::PositiveNumber);
@@ -124,6 +137,9 @@ int main(int argc, char** argv) {
   app.add_option("--stage", stage, "convert: the whole pipeline (default); ball: meshing and the ball map")
       ->check(CLI::IsMember({"convert", "ball"}));
   app.add_option("--cli", cli, "the tet2spline program for --stage convert (default: beside this one)");
+  app.add_flag("--perturb", perturb,
+               "convert: run k converts the model scaled by 1 + k*1e-9 about its centre (run 0 as given): "
+               "the spread of paths inputs differing in their last bits take, not timer noise (mesh inputs)");
   app.add_flag("--no-split-chords", noSplit, "ball: map TetGen's mesh without splitting boundary chords first");
   // Everything after `--` goes to convert (CLI11 would take it as model names).
   int own = argc;
@@ -135,16 +151,20 @@ int main(int argc, char** argv) {
       break;
     }
   CLI11_PARSE(app, own, argv);
+  if (stage != "convert" && perturb) {
+    std::cerr << "tet2spline_bench: --perturb is for --stage convert\n";
+    return 2;
+  }
   if (stage != "convert" && !extra.empty()) {
     std::cerr << "tet2spline_bench: options after -- are convert's; --stage ball takes none\n";
     return 2;
   }
   if (stage == "convert") {
     nlohmann::json report = nlohmann::json::array();
-    const int status = runPipeline(cli, data, models, repeat, extra, report);
+    const int status = runPipeline(cli, data, models, repeat, perturb, extra, report);
     if (!jsonPath.empty()) {
       std::ofstream out(jsonPath);
-      out << std::setw(2) << nlohmann::json{{"stage", "convert"}, {"repeat", repeat}, {"models", report}} << "\n";
+      out << std::setw(2) << nlohmann::json{{"stage", "convert"}, {"repeat", repeat}, {"perturb", perturb}, {"models", report}} << "\n";
     }
     return status;
   }

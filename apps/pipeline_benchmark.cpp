@@ -13,6 +13,7 @@
 #include <fstream>
 #include <map>
 
+#include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/error.h"
 
 namespace tet2spline::bench {
@@ -83,12 +84,44 @@ PipelineRun runConvert(const std::string& cli, const std::string& model, const s
   return run;
 }
 
+void requirePerturbable(const std::string& model) {
+  const FileFormat f = formatFromPath(model);
+  if (!isVolumeFormat(f) && !isSurfaceFormat(f))
+    throw Error(ErrorKind::Usage, model + ": --perturb scales mesh inputs only (not CAD files)");
+}
+
+std::string perturbedCopy(const std::string& model, int k, const std::string& dir) {
+  requirePerturbable(model);
+  if (k == 0) return model;
+  const FileFormat f = formatFromPath(model);
+  const double s = 1.0 + 1e-9 * k;
+  auto scale = [s](Eigen::MatrixX3d& V) {
+    if (V.rows() == 0) return;
+    const Eigen::RowVector3d c = 0.5 * (V.colwise().minCoeff() + V.colwise().maxCoeff());
+    V = ((V.rowwise() - c) * s).rowwise() + c;
+  };
+  const fs::path stem = fs::path(dir) / (fs::path(model).stem().string() + "_perturbed_" + std::to_string(k));
+  if (isVolumeFormat(f)) {
+    TetMesh mesh = readTetMesh(model);
+    scale(mesh.V);
+    const std::string path = stem.string() + ".vtu";
+    writeTetMesh(mesh, path);
+    return path;
+  }
+  SurfaceMesh surface = readSurface(model);
+  scale(surface.V);
+  const std::string path = stem.string() + ".ply";
+  writeSurface(surface, path);
+  return path;
+}
+
 nlohmann::json summarize(const std::string& model, const std::vector<PipelineRun>& runs) {
   std::map<std::string, std::vector<double>> seconds;
   std::vector<double> wall;
   double peak = 0;
   int failed = 0;
   const PipelineRun* last = nullptr;
+  nlohmann::json perRun = nlohmann::json::array();
   for (const PipelineRun& r : runs) {
     peak = std::max(peak, r.peakRssMiB);
     if (r.exitStatus != 0) {
@@ -97,6 +130,16 @@ nlohmann::json summarize(const std::string& model, const std::vector<PipelineRun
     }
     last = &r;
     wall.push_back(r.wallSeconds);
+    nlohmann::json one = {{"wall_seconds", r.wallSeconds}};
+    if (r.report.contains("timings") && r.report["timings"].contains("total")) one["total"] = r.report["timings"]["total"];
+    for (const auto& [section, key] : {std::pair<const char*, const char*>{"ot", "iterations"},
+                                       {"param", "misplaced_volume"},
+                                       {"fit", "rms_error_relative"}})
+      if (r.report.contains(section) && r.report[section].contains(key))
+        one[std::string(section) + "_" + key] = r.report[section][key];
+    if (r.report.contains("param") && r.report["param"].contains("morph"))
+      one["morph"] = r.report["param"]["morph"].value("used", false);
+    perRun.push_back(one);
     if (r.report.contains("timings"))
       for (const auto& [key, value] : r.report["timings"].items())
         if (value.is_number()) seconds[key].push_back(value.get<double>());
@@ -115,6 +158,11 @@ nlohmann::json summarize(const std::string& model, const std::vector<PipelineRun
   nlohmann::json medians = nlohmann::json::object();
   for (const auto& [key, values] : seconds) medians[key] = median(values);
   j["timings"] = medians;
+  if (seconds.count("total")) {
+    j["total_min"] = *std::min_element(seconds["total"].begin(), seconds["total"].end());
+    j["total_max"] = *std::max_element(seconds["total"].begin(), seconds["total"].end());
+  }
+  j["per_run"] = perRun;
   const nlohmann::json& rep = last->report;
   auto copy = [&](const char* section, const char* key, const char* as) {
     if (rep.contains(section) && rep[section].contains(key)) j[as] = rep[section][key];

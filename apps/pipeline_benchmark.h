@@ -25,9 +25,24 @@ struct PipelineRun {
 /// started.
 PipelineRun runConvert(const std::string& cli, const std::string& model, const std::vector<std::string>& extraArgs);
 
+/// A copy of `model` in `dir` whose vertices are scaled by 1 + k·10⁻⁹ about
+/// their bounding box's centre (k = 0: the model itself, no copy). Inputs
+/// that differ in their last bits, as real inputs do, can take different
+/// paths through the pipeline (an untangling that ends in the morph, a
+/// transport with more Newton steps), which repeating one input never
+/// shows. Surfaces are copied as binary .ply (doubles) and volume meshes as
+/// .vtu (regions and fields kept); CAD files cannot be scaled this way and
+/// throw Error(Usage).
+std::string perturbedCopy(const std::string& model, int k, const std::string& dir);
+
+/// Throws Error(Usage) when perturbedCopy cannot scale `model` (checked
+/// before the first run, which is the model itself).
+void requirePerturbable(const std::string& model);
+
 /// Medians over runs: every key of timings (seconds), plus wall time, peak
 /// memory (the largest, not the median) and the quality figures of the last
-/// run that succeeded.
+/// run that succeeded; "per_run" lists each successful run's total seconds
+/// and quality figures, and "total_min"/"total_max" the spread of totals.
 nlohmann::json summarize(const std::string& model, const std::vector<PipelineRun>& runs);
 
 }  // namespace tet2spline::bench

@@ -47,3 +47,40 @@ TEST(Bench, AFailingModelGivesConvertsStatusAndItsMessage) {
   // Options after -- belong to convert: the ball-map stage refuses them.
   EXPECT_EQ(t2stest::runProgram(t2stest::sibling("tet2spline_bench"), "--stage ball blob-closed -- --elements 2", dir).status, 2);
 }
+
+// --perturb: run k converts the model scaled by 1 + k·1e-9 (README
+// "Benchmarks"); each run's total and figures are listed and the medians lie
+// within their spread. CAD inputs cannot be scaled that way (usage, 2), and
+// the ball stage takes no --perturb.
+TEST(Bench, PerturbedRunsAreListedWithTheirSpread) {
+  const auto dir = t2stest::scratchDir("bench_perturb");
+  const auto json = dir / "bench.json";
+  const auto tmp = dir / "tmp";  // the bench's TMPDIR: its scaled copies go there
+  std::filesystem::create_directories(tmp);
+  ::setenv("TMPDIR", tmp.c_str(), 1);
+  const auto r = t2stest::runProgram(t2stest::sibling("tet2spline_bench"),
+                                     "--data " + q(t2stest::dataDir()) + " blob-closed --repeat 2 --perturb --json " +
+                                         q(json) + " -- --elements 2 --degree 2",
+                                     dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = t2stest::readJson(json);
+  EXPECT_EQ(j["perturb"], true);
+  const auto& m = j["models"][0];
+  ASSERT_EQ(m["per_run"].size(), 2u);
+  for (const auto& run : m["per_run"]) {
+    EXPECT_GT(run["ot_iterations"].get<int>(), 0);
+    EXPECT_GT(run["fit_rms_error_relative"].get<double>(), 0);
+    EXPECT_TRUE(run.contains("morph"));
+  }
+  const double lo = m["total_min"], hi = m["total_max"], mid = m["timings"]["total"];
+  EXPECT_LE(lo, mid);
+  EXPECT_LE(mid, hi);
+  EXPECT_EQ(t2stest::runProgram(t2stest::sibling("tet2spline_bench"),
+                                "--perturb --repeat 2 " + q(t2stest::sourceDir() + "/models/bracket.step"), dir)
+                .status,
+            2);
+  EXPECT_EQ(t2stest::runProgram(t2stest::sibling("tet2spline_bench"), "--stage ball --perturb blob-closed", dir).status, 2);
+  ::unsetenv("TMPDIR");
+  // No scaled copies (nor run folders) are left behind.
+  EXPECT_TRUE(std::filesystem::is_empty(tmp)) << t2stest::listDir(tmp).front();
+}
