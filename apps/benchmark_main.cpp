@@ -19,6 +19,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -117,6 +118,25 @@ int runPipeline(const std::string& cli, const std::string& data, const std::vect
       report.push_back({{"model", name}, {"error", e.what()}});
       status = e.exitStatus();
     }
+  }
+  // Growth (issue 7): each model's median total against the first model's,
+  // next to how n log n grows (n: tets of the parameterized mesh), so that
+  // "time grows no faster than 1.5 × n log n" can be read off.
+  const nlohmann::json* base = nullptr;
+  for (auto& j : report) {
+    if (!j.contains("timings") || !(j.value("param_tets", 0L) > 1)) continue;
+    if (!base) {
+      base = &j;
+      continue;
+    }
+    const double n0 = static_cast<double>((*base)["param_tets"].get<long>()), n1 = static_cast<double>(j["param_tets"].get<long>());
+    const double time = j["timings"]["total"].get<double>() / std::max(1e-9, (*base)["timings"]["total"].get<double>());
+    const double nlogn = n1 * std::log(n1) / (n0 * std::log(n0));
+    j["growth"] = {{"from", (*base)["model"]}, {"tets", n1 / n0}, {"n_log_n", nlogn}, {"total", time},
+                   {"total_over_n_log_n", time / nlogn}};
+    std::cout << "growth " << (*base)["model"].get<std::string>() << " -> " << j["model"].get<std::string>() << ": tets x"
+              << fixed(n1 / n0, 2) << ", n log n x" << fixed(nlogn, 2) << ", median total x" << fixed(time, 2) << " ("
+              << fixed(time / nlogn, 2) << " times n log n's growth)" << std::endl;
   }
   return status;
 }

@@ -4,6 +4,8 @@
 // convert's exit status; options after `--` reach convert.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "cli_runner.h"
 
 using t2stest::q;
@@ -31,6 +33,29 @@ TEST(Bench, PipelineReportsEveryStageAndConvertOptionsReachConvert) {
   EXPECT_GT(m["peak_rss_mib"].get<double>(), 10);
   EXPECT_EQ(m["param_inverted_tets"], 0);
   EXPECT_GT(m["wall_seconds"].get<double>(), 0);
+  EXPECT_FALSE(m.contains("growth"));  // (one model: nothing to grow from)
+}
+
+// Two models: the second's growth from the first, total against n log n.
+TEST(Bench, GrowthIsReportedFromTheFirstModel) {
+  const auto dir = t2stest::scratchDir("bench_growth");
+  const auto json = dir / "bench.json";
+  const auto r = t2stest::runProgram(t2stest::sibling("tet2spline_bench"),
+                                     "--data " + q(t2stest::dataDir()) + " blob-closed blobby --repeat 1 --json " +
+                                         q(json) + " -- --elements 2 --degree 2",
+                                     dir);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("growth blob-closed -> blobby"), std::string::npos) << r.out;
+  const auto j = t2stest::readJson(json);
+  const auto& a = j["models"][0];
+  const auto& b = j["models"][1];
+  ASSERT_TRUE(b.contains("growth"));
+  const double n0 = a["param_tets"].get<double>(), n1 = b["param_tets"].get<double>();
+  EXPECT_DOUBLE_EQ(b["growth"]["tets"].get<double>(), n1 / n0);
+  EXPECT_NEAR(b["growth"]["n_log_n"].get<double>(), n1 * std::log(n1) / (n0 * std::log(n0)), 1e-12);
+  EXPECT_NEAR(b["growth"]["total"].get<double>(), b["timings"]["total"].get<double>() / a["timings"]["total"].get<double>(), 1e-12);
+  EXPECT_NEAR(b["growth"]["total_over_n_log_n"].get<double>(),
+              b["growth"]["total"].get<double>() / b["growth"]["n_log_n"].get<double>(), 1e-12);
 }
 
 TEST(Bench, AFailingModelGivesConvertsStatusAndItsMessage) {
