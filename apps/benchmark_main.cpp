@@ -11,6 +11,12 @@
 // (refine.h), as the pipeline does; --no-split-chords measures the map on
 // TetGen's mesh as it is.
 //
+// --perturb: run k converts the model scaled by 1 + k·1e-9 (pipeline_benchmark.h
+// perturbedCopy), so that the runs show the spread of paths the pipeline
+// takes on inputs differing in their last bits. With two or more models,
+// each after the first gets its growth from the first (total against
+// n log n).
+//
 //   tet2spline_bench --data build/testdata fandisk homer --repeat 3 --json bench.json
 //   tet2spline_bench --stage ball bunny00 homer
 #include <sys/resource.h>
@@ -85,19 +91,24 @@ int runPipeline(const std::string& cli, const std::string& data, const std::vect
       const std::string path = modelPath(data, name);
       if (perturb) bench::requirePerturbable(path);
       std::vector<bench::PipelineRun> runs;
-      const fs::path copies = fs::temp_directory_path() / ("t2s_bench_inputs_" + std::to_string(::getpid()));
-      fs::create_directories(copies);
-      for (int k = 0; k < repeat; ++k) {
-        try {
-          runs.push_back(bench::runConvert(cli, perturb ? bench::perturbedCopy(path, k, copies.string()) : path, extra));
-        } catch (...) {
-          fs::remove_all(copies);
-          throw;
+      {
+        // The scaled copies live as long as the model's runs.
+        struct Scratch {
+          fs::path dir;
+          ~Scratch() {
+            std::error_code ec;
+            if (!dir.empty()) fs::remove_all(dir, ec);
+          }
+        } copies;
+        if (perturb) {
+          copies.dir = fs::temp_directory_path() / ("t2s_bench_inputs_" + std::to_string(::getpid()));
+          fs::create_directories(copies.dir);
         }
-        // A failing model fails every time: do not wait for it again.
-        if (runs.back().exitStatus != 0) break;
+        for (int k = 0; k < repeat; ++k) {
+          runs.push_back(bench::runConvert(cli, perturb ? bench::perturbedCopy(path, k, copies.dir.string()) : path, extra));
+          if (runs.back().exitStatus != 0) break;  // a failing model fails every time: do not wait for it again
+        }
       }
-      fs::remove_all(copies);
       nlohmann::json j = bench::summarize(name, runs);
       report.push_back(j);
       std::cout << std::left << std::setw(14) << name << std::right;
