@@ -28,6 +28,11 @@ double median(std::vector<double> v) {
 
 namespace {
 
+/// to[as] = report[section][key], when the report has it.
+void copyFigure(const nlohmann::json& report, const char* section, const char* key, const char* as, nlohmann::json& to) {
+  if (report.contains(section) && report[section].contains(key)) to[as] = report[section][key];
+}
+
 std::string lastLine(const fs::path& file) {
   std::ifstream in(file);
   std::string line, last;
@@ -131,12 +136,10 @@ nlohmann::json summarize(const std::string& model, const std::vector<PipelineRun
     last = &r;
     wall.push_back(r.wallSeconds);
     nlohmann::json one = {{"wall_seconds", r.wallSeconds}};
-    if (r.report.contains("timings") && r.report["timings"].contains("total")) one["total"] = r.report["timings"]["total"];
-    for (const auto& [section, key] : {std::pair<const char*, const char*>{"ot", "iterations"},
-                                       {"param", "misplaced_volume"},
-                                       {"fit", "rms_error_relative"}})
-      if (r.report.contains(section) && r.report[section].contains(key))
-        one[std::string(section) + "_" + key] = r.report[section][key];
+    copyFigure(r.report, "timings", "total", "total", one);
+    copyFigure(r.report, "ot", "iterations", "ot_iterations", one);
+    copyFigure(r.report, "param", "misplaced_volume", "param_misplaced_volume", one);
+    copyFigure(r.report, "fit", "rms_error_relative", "fit_rms_error_relative", one);
     if (r.report.contains("param") && r.report["param"].contains("morph"))
       one["morph"] = r.report["param"]["morph"].value("used", false);
     perRun.push_back(one);
@@ -164,9 +167,7 @@ nlohmann::json summarize(const std::string& model, const std::vector<PipelineRun
   }
   j["per_run"] = perRun;
   const nlohmann::json& rep = last->report;
-  auto copy = [&](const char* section, const char* key, const char* as) {
-    if (rep.contains(section) && rep[section].contains(key)) j[as] = rep[section][key];
-  };
+  auto copy = [&](const char* section, const char* key, const char* as) { copyFigure(rep, section, key, as, j); };
   if (rep.contains("vertices")) j["vertices"] = rep["vertices"];
   if (rep.contains("tets")) j["tets"] = rep["tets"];
   copy("param", "vertices", "param_vertices");
