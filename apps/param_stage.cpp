@@ -115,6 +115,7 @@ void addParamReport(json& j, const ParamResult& r) {
   }
   setPath(j, "param.inverted_tets_before_untangling", r.param.invertedTetsBeforeUntangling);
   setPath(j, "param.finishing_rounds", r.param.finishingRounds);
+  setPath(j, "param.split_edges", r.param.splitEdges);
   setPath(j, "param.inverted_tets", r.param.invertedTets);
   setPath(j, "param.flipped_boundary_triangles", r.param.flippedBoundaryTriangles);
   setPath(j, "param.boundary_max_distance", r.param.boundaryMaxDistance);

@@ -512,6 +512,36 @@ constexpr double kBallShapesWork = 250;
 constexpr double kMorphCloseEnough = 1;  // target edges, rms
 // The final untangling's rounds after its budget is spent (see there).
 constexpr int kFinishingRounds = 8;
+// Edge splits for the tets those rounds leave (see there): at most this many
+// tets, and this many splits.
+constexpr int kMaxSplitTets = 64;
+constexpr int kSplitRounds = 3;
+
+// The longest edge in U of every tet that is not positive in U, except
+// edges with both ends on the boundary (a boundary edge or a chord: its new
+// vertex would have to lie on ∂Ω), without repeats.
+std::vector<std::pair<int, int>> edgesToSplit(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T,
+                                              const std::vector<char>& onBoundary) {
+  std::vector<std::pair<int, int>> edges;
+  for (Eigen::Index t = 0; t < T.rows(); ++t) {
+    std::array<Eigen::Vector3d, 4> p;
+    for (int k = 0; k < 4; ++k) p[static_cast<size_t>(k)] = U.row(T(t, k)).transpose();
+    if (orient3d(p[0].data(), p[1].data(), p[2].data(), p[3].data()) > 0) continue;
+    double longest = -1;
+    std::pair<int, int> edge{-1, -1};
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const int a = T(t, i), b = T(t, j);
+        if (onBoundary[static_cast<size_t>(a)] && onBoundary[static_cast<size_t>(b)]) continue;
+        const double length = (p[static_cast<size_t>(i)] - p[static_cast<size_t>(j)]).norm();
+        if (length > longest) longest = length, edge = {std::min(a, b), std::max(a, b)};
+      }
+    if (edge.first >= 0) edges.push_back(edge);
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  return edges;
+}
 // Cells per direction of ParamResult::Figures::misplacedVolume: 8³, the
 // scale of the spline's elements at the fit's default of 8 to 16.
 constexpr int kMisplacementCells = 8;
@@ -607,7 +637,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     if (options.splitChords) r.chordsSplit = splitBoundaryChords(r.mesh);
     r.timings.refine = secondsSince(t0);
     const TetMesh& mesh = r.mesh;
-    const Eigen::Index nv = mesh.numVertices(), nt = mesh.numTets();
+    Eigen::Index nv = mesh.numVertices(), nt = mesh.numTets();  // (grown by edge splits before the morph)
     report(0.01, r.chordsSplit ? "split " + std::to_string(r.chordsSplit) + " boundary chords" : "no boundary chords");
 
     // 2. ball map
@@ -644,7 +674,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
 
     // 3. measure
     t0 = Clock::now();
-    const Eigen::VectorXd w = tetDensities(mesh, options.measure);
+    Eigen::VectorXd w = tetDensities(mesh, options.measure);
     Eigen::VectorXd physical(nt), weighted(nt);
     for (Eigen::Index t = 0; t < nt; ++t) physical(t) = signedVolume(mesh.V, mesh.T, t), weighted(t) = w(t) * physical(t);
     const double totalWeighted = weighted.sum();
@@ -690,7 +720,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       std::vector<int> siteStart;
       Eigen::MatrixX3d sites;
       Eigen::VectorXd masses;
-      const std::vector<char> jumps = densityJumps(mesh, w);
+      std::vector<char> jumps = densityJumps(mesh, w);
       const bool split = options.interfaceSites == ParamOptions::InterfaceSites::On ||
                          (options.interfaceSites == ParamOptions::InterfaceSites::Auto &&
                           std::find(jumps.begin(), jumps.end(), 1) != jumps.end());
@@ -758,6 +788,10 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // (55 -> 2, 13 -> 0), and the morph took over.
       untangleOptions.localRepairPatches = options.domain == ParamDomain::Ball;
       untangleOptions.targetVolumes = r.targetVolume;
+      // A few tets left that wider regions do not repair: the local repair,
+      // the finishing rounds and the edge splits below take them (see
+      // UntangleOptions::stallBelow).
+      untangleOptions.stallBelow = kMaxSplitTets;
       untangleOptions.progress = [&](double, const std::string& m) {
         return !options.progress || options.progress(-1, "final " + m);
       };
@@ -831,21 +865,80 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // localRepairSweeps): bunny00's ball map, 6 left, 6 -> 2 -> 1 -> 0
       // (since the transport's AMG solves: 8371 left, 11 after the repair,
       // 0 after one round).
-      int leftOver = untangled.invertedAfter + untangled.flippedBoundaryTriangles;
-      if (leftOver > 0 && untangled.budgetExhausted && !untangled.stopped && options.untangle.localRepairSweeps > 0 &&
-          leftOver <= std::max(100.0, options.untangle.localRepairFraction * static_cast<double>(nt))) {
-        freeTheBoundary();
-        untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
+      // ε rounds, each with the local repair, while each leaves fewer; the
+      // rounds kept.
+      auto finishingRounds = [&](int& leftOver) {
+        int kept = 0;
         for (int round = 0; round < kFinishingRounds && leftOver > 0; ++round) {
-          UntangleResult finished = runPhase(untangled.U);  // (the budget is spent: one ε round)
+          UntangleResult finished = runPhase(untangled.U);  // (budget spent: one ε round; stalled: regions until they stall again)
           if (finished.stopped) throw Status::failure("stopped during the final untangling");
           const int left = finished.invertedAfter + finished.flippedBoundaryTriangles;
           if (left >= leftOver) break;
           untangled = std::move(finished);
           leftOver = left;
-          ++r.param.finishingRounds;
+          ++kept;
         }
+        return kept;
+      };
+      int leftOver = untangled.invertedAfter + untangled.flippedBoundaryTriangles;
+      if (leftOver > 0 && (untangled.budgetExhausted || untangled.stalled) && !untangled.stopped &&
+          options.untangle.localRepairSweeps > 0 &&
+          leftOver <= std::max(100.0, options.untangle.localRepairFraction * static_cast<double>(nt))) {
+        freeTheBoundary();
+        untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
+        r.param.finishingRounds += finishingRounds(leftOver);
       }
+      // Tets that no round repairs, pinched between their neighbours (on
+      // bunny00 scaled by 1 + 10⁻⁹ and 1 + 2·10⁻⁹, with interior vertices
+      // kept in the cube: 1 and 3 tets, e.g. one boundary and three interior
+      // vertices with a 0.2 long edge, volume −10⁻¹⁴ of a target 10⁻⁶; the
+      // morph took 850 s for them): split the longest edge of each, as
+      // splitBoundaryChords splits chords, and run the rounds again. The new
+      // vertex is free to leave the edge. Measured on those two: 1 -> 0 and
+      // 3 -> 0 in one round (about 1 s).
+      // (Like those rounds, only with the local repair.)
+      for (int splitRound = 0; splitRound < kSplitRounds && options.untangle.localRepairSweeps > 0 &&
+                               !untangled.stopped && untangled.invertedAfter > 0 &&
+                               untangled.invertedAfter <= kMaxSplitTets;
+           ++splitRound) {
+        std::vector<char> onBoundary(static_cast<size_t>(nv), 0);
+        for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) onBoundary[static_cast<size_t>(r.boundaryVertices(k))] = 1;
+        const EdgeSplits cut = splitEdges(r.mesh, edgesToSplit(untangled.U, mesh.T, onBoundary));
+        if (cut.splits.empty()) break;
+        nv = mesh.numVertices(), nt = mesh.numTets();
+        // Every per-vertex and per-tet array follows the mesh.
+        auto grow = [&](Eigen::MatrixX3d& X) {
+          X.conservativeResize(nv, 3);
+          for (const EdgeSplit& e : cut.splits) X.row(e.vertex) = (1 - e.t) * X.row(e.a) + e.t * X.row(e.b);
+        };
+        grow(untangled.U);
+        grow(r.ballU);
+        fixed.resize(static_cast<size_t>(nv), false);
+        if (!locks.empty()) locks.resize(static_cast<size_t>(nv), 0);
+        jumps.resize(static_cast<size_t>(nv), 0);
+        for (const EdgeSplit& e : cut.splits)
+          jumps[static_cast<size_t>(e.vertex)] = jumps[static_cast<size_t>(e.a)] && jumps[static_cast<size_t>(e.b)];
+        const Eigen::VectorXd w0 = w;
+        w.resize(nt), physical.resize(nt), weighted.resize(nt), r.targetVolume.resize(nt);
+        for (Eigen::Index t = 0; t < nt; ++t) {
+          w(t) = w0(cut.parent[static_cast<size_t>(t)]);
+          physical(t) = signedVolume(mesh.V, mesh.T, t);
+          weighted(t) = w(t) * physical(t);
+          r.targetVolume(t) = weighted(t) * (r.domainVolume / totalWeighted);
+        }
+        untangleOptions.targetVolumes = r.targetVolume;
+        if (!locks.empty()) untangleOptions.cubeLocks = locks;
+        r.param.splitEdges += static_cast<int>(cut.splits.size());
+        freeTheBoundary();
+        untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
+        leftOver = countNonPositiveTets(untangled.U, mesh.T) + untangled.flippedBoundaryTriangles;
+        untangled.invertedAfter = leftOver - untangled.flippedBoundaryTriangles;
+        r.param.finishingRounds += finishingRounds(leftOver);
+      }
+      if (r.param.splitEdges > 0)
+        r.warnings.push_back("split " + std::to_string(r.param.splitEdges) +
+                             " edges of tets the final untangling left inverted (param.split_edges): the "
+                             "parameterized mesh has that many more vertices than the input");
       r.timings.finalUntangle = secondsSince(t0);
       if (untangled.stopped) throw Status::failure("stopped during the final untangling");
       if ((untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) && canMorph) {

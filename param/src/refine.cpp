@@ -130,9 +130,15 @@ namespace {
 int splitChordsOnly(TetMesh& mesh) {
   const std::vector<std::pair<int, int>> chords = findChords(mesh);
   if (chords.empty()) return 0;
+  return static_cast<int>(splitEdges(mesh, chords).splits.size());
+}
 
+}  // namespace
+
+EdgeSplits splitEdges(TetMesh& mesh, const std::vector<std::pair<int, int>>& edges) {
+  EdgeSplits result;
   const Eigen::Index nv0 = mesh.numVertices(), nt0 = mesh.numTets();
-  const Eigen::Index nc = static_cast<Eigen::Index>(chords.size());
+  const Eigen::Index nc = static_cast<Eigen::Index>(edges.size());
   // Each chord adds one vertex, and one tet per tet around it (about 5).
   std::vector<std::array<int, 4>> tets(static_cast<size_t>(nt0));
   for (Eigen::Index t = 0; t < nt0; ++t) tets[t] = {mesh.T(t, 0), mesh.T(t, 1), mesh.T(t, 2), mesh.T(t, 3)};
@@ -159,16 +165,17 @@ int splitChordsOnly(TetMesh& mesh) {
   // stays (rare; reported by the return value's shortfall).
   auto tetVolume = [](const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
                       const Eigen::Vector3d& p3) { return (p1 - p0).cross(p2 - p0).dot(p3 - p0); };
-  int split = 0;
   Eigen::Index nvNew = nv0;
   for (Eigen::Index c = 0; c < nc; ++c) {
-    const auto [a, b] = chords[static_cast<size_t>(c)];
+    const auto [a, b] = edges[static_cast<size_t>(c)];
+    if (a == b || a < 0 || b < 0 || a >= nv0 || b >= nv0) continue;
     // Tets around the chord: those of a that also hold b.
     std::vector<int> around;
     for (int t : vertexTets[static_cast<size_t>(a)]) {
       const auto& q = tets[static_cast<size_t>(t)];
       if (std::find(q.begin(), q.end(), b) != q.end()) around.push_back(t);
     }
+    if (around.empty()) continue;
     auto worst = [&](const Eigen::Vector3d& p) {
       double margin = std::numeric_limits<double>::infinity();
       for (int t : around) {
@@ -197,7 +204,7 @@ int splitChordsOnly(TetMesh& mesh) {
     }
     if (!(bestMargin > 0)) continue;
     const int m = static_cast<int>(nvNew++);
-    ++split;
+    result.splits.push_back({a, b, m, bestT});
     V.row(m) = best;
     for (auto& f : pointFields) f.values.row(m) = (1 - bestT) * f.values.row(a) + bestT * f.values.row(b);
     auto& tb = vertexTets[static_cast<size_t>(b)];
@@ -234,9 +241,8 @@ int splitChordsOnly(TetMesh& mesh) {
   mesh.T = std::move(T);
   mesh.region = std::move(region);
   mesh.pointFields = std::move(pointFields);
-  return split;
+  result.parent = std::move(parent);
+  return result;
 }
-
-}  // namespace
 
 }  // namespace tet2spline

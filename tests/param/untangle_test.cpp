@@ -109,6 +109,34 @@ TEST(Untangle, WorkBudgetEndsAFailingRunEarly) {
     }
 }
 
+// The same run with stallBelow: its first region ends with the folded
+// face's tets still inverted, so the regions stop growing there.
+TEST(Untangle, AStalledRegionStopsGrowing) {
+  const int n = 6, s = n + 1;
+  const TetMesh m = t2stest::cubeGrid(n);
+  const auto fixed = boundaryMask(m);
+  Eigen::MatrixX3d U = m.V;
+  U.row(0 + s * (3 + s * 3)).swap(U.row(0 + s * (4 + s * 3)));
+  UntangleOptions options;
+  options.localRepairSweeps = 0;
+  const UntangleResult full = untangle(m.V, m.T, U, fixed, options);
+  ASSERT_GT(full.invertedAfter, 0);
+  EXPECT_FALSE(full.stalled);
+  options.stallBelow = 1000;  // (any count: the first region barely lowers it)
+  const UntangleResult stalled = untangle(m.V, m.T, U, fixed, options);
+  EXPECT_TRUE(stalled.stalled);
+  EXPECT_FALSE(stalled.budgetExhausted);
+  EXPECT_FALSE(stalled.status.ok);
+  EXPECT_GT(stalled.invertedAfter, 0);
+  EXPECT_LE(stalled.invertedAfter, stalled.invertedBefore);  // never worse than the start
+  EXPECT_LT(stalled.outerIterations, full.outerIterations);
+  EXPECT_LT(stalled.freeVertices, full.freeVertices);
+  for (Eigen::Index v = 0; v < U.rows(); ++v)
+    if (fixed[v]) {
+      EXPECT_EQ(stalled.U.row(v), U.row(v));
+    }
+}
+
 TEST(Untangle, NothingToDoLeavesTheMapAlone) {
   const TetMesh m = t2stest::cubeGrid(3);
   const UntangleResult r = untangle(m.V, m.T, m.V, boundaryMask(m));
@@ -208,6 +236,26 @@ TEST_P(UntangleCubeMethods, BoundarySlidesOnTheCubeAndNothingFlips) {
       EXPECT_EQ(r.U.row(v), c.mesh.V.row(v));  // corners never move
     }
   }
+}
+
+// Interior vertices pushed out through a face come back in and stay in the
+// cube: a bijection onto it has every interior vertex inside.
+TEST_P(UntangleCubeMethods, InteriorVerticesEndInsideTheCube) {
+  CubeCase c = tangledCube(6);
+  int pushed = 0;
+  for (Eigen::Index v = 0; v < c.U.rows(); ++v)
+    if (c.locks[v] == 0 && c.U(v, 2) < 0.25 && v % 2 == 0) c.U(v, 2) = -0.05, ++pushed;
+  ASSERT_GT(pushed, 2);
+  const std::vector<bool> none(static_cast<size_t>(c.U.rows()), false);
+  const UntangleResult r = untangle(c.mesh.V, c.mesh.T, c.U, none, cubeOptions(c, GetParam()));
+  EXPECT_TRUE(r.status.ok) << r.status.message;
+  EXPECT_EQ(countNonPositiveTets(r.U, c.mesh.T), 0);
+  EXPECT_EQ(flippedCubeTriangles(r.U, c.faces), 0);
+  for (Eigen::Index v = 0; v < r.U.rows(); ++v)
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_GE(r.U(v, d), 0) << "vertex " << v;
+      EXPECT_LE(r.U(v, d), 1) << "vertex " << v;
+    }
 }
 
 // A face vertex that starts on the wrong side of a cube edge: on the grid,

@@ -298,7 +298,8 @@ struct ParamResult {
     double misplacedVolume = 0;
     int cornerVertices = 0, edgeVertices = 0;  ///< cube: boundary vertices put on corners / edges
     int flippedBoundaryTriangles = 0;  ///< exact, boundary triangles flipped on ∂Ω (seen from its centre)
-    int finishingRounds = 0;           ///< ε rounds after the final untangling's budget was spent, each leaving fewer
+    int finishingRounds = 0;           ///< ε rounds after the final untangling's budget was spent or its regions stalled (and after edge splits), each leaving fewer
+    int splitEdges = 0;                ///< edges split for tets the final untangling's rounds left inverted (new vertices)
     bool morphed = false;              ///< the final map is the ball map morphed towards the untangler's result
     double morphDistance = 0;          ///< then: rms of |U − target| per vertex, in target edges (barrier_morph.h)
     double morphMaxDistance = 0;       ///< and its largest
