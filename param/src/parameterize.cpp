@@ -886,6 +886,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
           leftOver <= std::max(100.0, options.untangle.localRepairFraction * static_cast<double>(nt))) {
         freeTheBoundary();
         untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
+        untangleOptions.keepInteriorInCube = true;
         r.param.finishingRounds += finishingRounds(leftOver);
       }
       // Tets that no round repairs, pinched between their neighbours (on
@@ -896,7 +897,23 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // splitBoundaryChords splits chords, and run the rounds again. The new
       // vertex is free to leave the edge. Measured on those two: 1 -> 0 and
       // 3 -> 0 in one round (about 1 s).
-      // (Like those rounds, only with the local repair.)
+      // (Like those rounds, only with the local repair.) When they do not end
+      // valid, everything goes back to before the splits, for the morph
+      // (measured: spool on the cube from a mesh read back from disk, 3 tets
+      // left after the splits, and the morph on the split mesh found no start).
+      struct BeforeSplits {
+        TetMesh mesh;
+        UntangleResult untangled;
+        Eigen::MatrixX3d ballU;
+        Eigen::VectorXd w, physical, weighted, targetVolume;
+        std::vector<char> jumps;
+        std::vector<bool> fixed;
+        std::vector<std::uint8_t> locks;
+      };
+      std::optional<BeforeSplits> beforeSplits;
+      if (options.untangle.localRepairSweeps > 0 && !untangled.stopped && untangled.invertedAfter > 0 &&
+          untangled.invertedAfter <= kMaxSplitTets)
+        beforeSplits = BeforeSplits{r.mesh, untangled, r.ballU, w, physical, weighted, r.targetVolume, jumps, fixed, locks};
       for (int splitRound = 0; splitRound < kSplitRounds && options.untangle.localRepairSweeps > 0 &&
                                !untangled.stopped && untangled.invertedAfter > 0 &&
                                untangled.invertedAfter <= kMaxSplitTets;
@@ -931,9 +948,26 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         r.param.splitEdges += static_cast<int>(cut.splits.size());
         freeTheBoundary();
         untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
+        untangleOptions.keepInteriorInCube = true;
         leftOver = countNonPositiveTets(untangled.U, mesh.T) + untangled.flippedBoundaryTriangles;
         untangled.invertedAfter = leftOver - untangled.flippedBoundaryTriangles;
         r.param.finishingRounds += finishingRounds(leftOver);
+      }
+      if (beforeSplits && (untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) && r.param.splitEdges > 0) {
+        BeforeSplits& b = *beforeSplits;
+        r.mesh = std::move(b.mesh);
+        untangled = std::move(b.untangled);
+        r.ballU = std::move(b.ballU);
+        w = std::move(b.w), physical = std::move(b.physical), weighted = std::move(b.weighted);
+        r.targetVolume = std::move(b.targetVolume);
+        jumps = std::move(b.jumps), fixed = std::move(b.fixed), locks = std::move(b.locks);
+        nv = mesh.numVertices(), nt = mesh.numTets();
+        untangleOptions.targetVolumes = r.targetVolume;
+        if (!locks.empty()) untangleOptions.cubeLocks = locks;
+        r.warnings.push_back("split " + std::to_string(r.param.splitEdges) +
+                             " edges of tets the final untangling left inverted, which did not repair them; the "
+                             "splits were undone");
+        r.param.splitEdges = 0;
       }
       if (r.param.splitEdges > 0)
         r.warnings.push_back("split " + std::to_string(r.param.splitEdges) +

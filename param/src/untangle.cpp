@@ -457,6 +457,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   if (nt > 0 && (T0.minCoeff() < 0 || T0.maxCoeff() >= nv))
     throw Error(ErrorKind::Input, "untangle: tet vertex index out of range");
   const bool onCube = options.cubeFaces.rows() > 0;
+  const bool clampIn = onCube && options.keepInteriorInCube;
   if (onCube && options.sphereFaces.rows() > 0)
     throw Error(ErrorKind::Usage, "untangle: sphereFaces (" + std::to_string(options.sphereFaces.rows()) +
                                       ") and cubeFaces (" + std::to_string(options.cubeFaces.rows()) +
@@ -511,13 +512,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       locks[v] = lock;
       if (options.cubeAcrossEdges && __builtin_popcount(lock) == 1) slide[v] = kCubeRadial;
     }
-  // On the cube, interior vertices stay in [0, 1]³: a bijection onto the
-  // cube has them all inside, and nothing else keeps them there (the cones
-  // guard the boundary triangles only). Measured on bunny00 scaled by
-  // 1 + 10⁻⁹: the final untangling's last 55 tets were interior vertices up
-  // to 10⁻³ beyond a face, which the local repair cannot move (its moves
-  // stay in [0, 1]). Those that start outside are mirrored in through the face.
-  if (onCube)
+  // keepInteriorInCube: interior vertices that start outside the cube are
+  // mirrored in through the face (untangle.h).
+  if (clampIn)
     for (Eigen::Index v = 0; v < nv; ++v) {
       if (fixed[v] || slide[v] != kInterior) continue;
       for (int d = 0; d < 3; ++d) {
@@ -716,7 +713,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         const detail::CubeRay r = cubeRay(y);
         if (!(r.extent > 0)) return;  // at the centre: no ray; keep the last position
         W.row(v) = detail::cubeRayPoint(r);
-      } else if (onCube) {  // interior, kept in the cube (see above)
+      } else if (clampIn) {  // interior, kept in the cube (keepInteriorInCube)
         for (int d = 0; d < 3; ++d) W(v, d) = std::clamp(y[d], 0.0, 1.0);
       } else {
         W.row(v) = y.transpose();
@@ -779,7 +776,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
                     (holdAtBounds && ((y[d] == 0 && s[d] > 0) || (y[d] == 1 && s[d] < 0))))
                   s[d] = 0;
             }
-            else if (onCube) {  // interior: beyond a face the clamp makes E flat
+            else if (clampIn) {  // interior: beyond a face the clamp makes E flat
               for (int d = 0; d < 3; ++d)
                 if (y[d] < 0 || y[d] > 1) s[d] = 0;
             }
@@ -790,13 +787,13 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       return E;
     };
 
-    // Sliding vertices (and on the cube the interior ones, clamped) restart
+    // Sliding vertices (and with keepInteriorInCube the interior ones) restart
     // from their constrained position (after each L-BFGS run, after each
     // Newton step); true if there are any.
     auto restartSliding = [&](Eigen::VectorXd& x) {
       bool any = false;
       for (size_t k = 0; k < freeVerts.size(); ++k)
-        if (slide[freeVerts[k]] != kInterior || onCube) {
+        if (slide[freeVerts[k]] != kInterior || clampIn) {
           x.segment<3>(3 * static_cast<Eigen::Index>(k)) = (W.row(freeVerts[k]).transpose() - unknown(k)) / precond[freeVerts[k]];
           any = true;
         }
@@ -831,7 +828,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       } else if (slide[v] == kCube) {
         for (int d = 0; d < 3; ++d)  // locked, or held at a bound (the gradient's active set)
           if ((locks[v] >> d) & 1 || g[3 * static_cast<Eigen::Index>(k) + d] == 0) c.M(d, d) = 0, c.C(d, d) = 1;
-      } else if (onCube) {  // interior, clamped beyond a face
+      } else if (clampIn) {  // interior, clamped beyond a face
         for (int d = 0; d < 3; ++d)
           if (y[d] < 0 || y[d] > 1) c.M(d, d) = 0, c.C(d, d) = 1;
       }

@@ -144,8 +144,10 @@ INSTANTIATE_TEST_SUITE_P(Domains, ParamSolidWithVoid, ::testing::Values(ParamDom
 // Where the final untangling fails, the parameterization is the ball map
 // morphed towards its result (ParamOptions::morphWhenTangled): spool at the
 // default meshing on the cube (the ball map itself keeps one tet inverted,
-// repaired for the start), hand on the ball. Both need the morph today; if
-// the untangling learns to finish them, they belong in ParamRealData.
+// repaired for the start), hand on the ball. spool's last tets are now
+// often finished by the finishing rounds and edge splits (parameterize.cpp;
+// on one run 3 were left and the morph took them), so there the map may
+// come from either; hand needs the morph today.
 class ParamMorphFallback : public ::testing::TestWithParam<std::tuple<const char*, ParamDomain>> {};
 
 TEST_P(ParamMorphFallback, ValidWhereTheUntanglingFails) {
@@ -155,14 +157,20 @@ TEST_P(ParamMorphFallback, ValidWhereTheUntanglingFails) {
   o.domain = domain;
   const ParamResult r = parameterize(mesh, o);
   ASSERT_TRUE(r.status.ok) << name << ": " << r.status.message;
-  EXPECT_TRUE(r.param.morphed) << name;
+  if (domain == ParamDomain::Ball || r.param.morphed) {
+    EXPECT_TRUE(r.param.morphed) << name;
+    EXPECT_NE(std::find_if(r.warnings.begin(), r.warnings.end(),
+                           [](const std::string& w) { return w.find("param.morph") != std::string::npos; }),
+              r.warnings.end());
+  } else {  // finished by the last resort: rounds after a spent budget or a stall, edge splits
+    EXPECT_GT(r.param.finishingRounds + r.param.splitEdges, 0) << name;
+  }
   t2stest::expectValidParameterization(r, domain);
+  EXPECT_EQ(r.mesh.numVertices(), r.U.rows());
+  EXPECT_EQ(r.mesh.numTets(), r.targetVolume.size());
   EXPECT_NEAR(r.parametricVolume.sum(), r.domainVolume, 0.05 * r.domainVolume) << name;
   EXPECT_GT(r.parametricVolume.minCoeff(), 0) << name;
-  EXPECT_NE(std::find_if(r.warnings.begin(), r.warnings.end(),
-                         [](const std::string& w) { return w.find("param.morph") != std::string::npos; }),
-            r.warnings.end());
-  std::cout << name << " " << domainName(domain) << ": morph distance " << r.param.morphDistance
+  std::cout << name << (r.param.morphed ? " (morph)" : " (no morph)") << ", split edges " << r.param.splitEdges << ", " << name << " " << domainName(domain) << ": morph distance " << r.param.morphDistance
             << " target edges (max " << r.param.morphMaxDistance << "); volume ratio p1/p50/p99 " << r.param.volumeRatio.p1
             << "/" << r.param.volumeRatio.p50 << "/" << r.param.volumeRatio.p99 << "; seconds final untangle "
             << r.timings.finalUntangle << " morph " << r.timings.morph << " total " << r.timings.total << std::endl;
