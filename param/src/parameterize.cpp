@@ -909,11 +909,13 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         std::vector<char> jumps;
         std::vector<bool> fixed;
         std::vector<std::uint8_t> locks;
+        int finishingRounds;
       };
       std::optional<BeforeSplits> beforeSplits;
       if (options.untangle.localRepairSweeps > 0 && !untangled.stopped && untangled.invertedAfter > 0 &&
           untangled.invertedAfter <= kMaxSplitTets)
-        beforeSplits = BeforeSplits{r.mesh, untangled, r.ballU, w, physical, weighted, r.targetVolume, jumps, fixed, locks};
+        beforeSplits = BeforeSplits{r.mesh, untangled, r.ballU, w, physical, weighted, r.targetVolume,
+                                    jumps, fixed, locks, r.param.finishingRounds};
       for (int splitRound = 0; splitRound < kSplitRounds && options.untangle.localRepairSweeps > 0 &&
                                !untangled.stopped && untangled.invertedAfter > 0 &&
                                untangled.invertedAfter <= kMaxSplitTets;
@@ -961,6 +963,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         w = std::move(b.w), physical = std::move(b.physical), weighted = std::move(b.weighted);
         r.targetVolume = std::move(b.targetVolume);
         jumps = std::move(b.jumps), fixed = std::move(b.fixed), locks = std::move(b.locks);
+        r.param.finishingRounds = b.finishingRounds;
         nv = mesh.numVertices(), nt = mesh.numTets();
         untangleOptions.targetVolumes = r.targetVolume;
         if (!locks.empty()) untangleOptions.cubeLocks = locks;

@@ -139,7 +139,7 @@ EdgeSplits splitEdges(TetMesh& mesh, const std::vector<std::pair<int, int>>& edg
   EdgeSplits result;
   const Eigen::Index nv0 = mesh.numVertices(), nt0 = mesh.numTets();
   const Eigen::Index nc = static_cast<Eigen::Index>(edges.size());
-  // Each chord adds one vertex, and one tet per tet around it (about 5).
+  // Each edge adds one vertex, and one tet per tet around it (about 5).
   std::vector<std::array<int, 4>> tets(static_cast<size_t>(nt0));
   for (Eigen::Index t = 0; t < nt0; ++t) tets[t] = {mesh.T(t, 0), mesh.T(t, 1), mesh.T(t, 2), mesh.T(t, 3)};
   std::vector<int> parent(static_cast<size_t>(nt0));  // original tet of each tet (region, cell fields)
@@ -157,11 +157,11 @@ EdgeSplits splitEdges(TetMesh& mesh, const std::vector<std::pair<int, int>>& edg
     f.values = std::move(values);
   }
 
-  // Position of the new vertex on the chord: the midpoint, unless a sliver
-  // around the chord would get a non-positive volume in floating point
+  // Position of the new vertex on the edge: the midpoint, unless a sliver
+  // around the edge would get a non-positive volume in floating point
   // (the midpoint is rounded; later stages need vol > 0 in doubles): then
-  // the point of the chord, among a few, that keeps every new tet positive
-  // (exactly and in doubles) by the widest margin. No such point: the chord
+  // the point of the edge, among a few, that keeps every new tet positive
+  // (exactly and in doubles) by the widest margin. No such point: the edge
   // stays (rare; reported by the return value's shortfall).
   auto tetVolume = [](const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
                       const Eigen::Vector3d& p3) { return (p1 - p0).cross(p2 - p0).dot(p3 - p0); };
@@ -169,7 +169,7 @@ EdgeSplits splitEdges(TetMesh& mesh, const std::vector<std::pair<int, int>>& edg
   for (Eigen::Index c = 0; c < nc; ++c) {
     const auto [a, b] = edges[static_cast<size_t>(c)];
     if (a == b || a < 0 || b < 0 || a >= nv0 || b >= nv0) continue;
-    // Tets around the chord: those of a that also hold b.
+    // Tets around the edge: those of a that also hold b.
     std::vector<int> around;
     for (int t : vertexTets[static_cast<size_t>(a)]) {
       const auto& q = tets[static_cast<size_t>(t)];

@@ -775,8 +775,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
                 if ((locks[v] >> d) & 1 || y[d] < 0 || y[d] > 1 ||
                     (holdAtBounds && ((y[d] == 0 && s[d] > 0) || (y[d] == 1 && s[d] < 0))))
                   s[d] = 0;
-            }
-            else if (clampIn) {  // interior: beyond a face the clamp makes E flat
+            } else if (clampIn) {  // interior: beyond a face the clamp makes E flat
               for (int d = 0; d < 3; ++d)
                 if (y[d] < 0 || y[d] > 1) s[d] = 0;
             }
