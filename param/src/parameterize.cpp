@@ -899,8 +899,9 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // 3 -> 0 in one round (about 1 s).
       // (Like those rounds, only with the local repair.) When they do not end
       // valid, everything goes back to before the splits, for the morph
-      // (measured: spool on the cube from a mesh read back from disk, 3 tets
-      // left after the splits, and the morph on the split mesh found no start).
+      // (measured: spool on the cube, on one of three runs of the same input,
+      // 3 tets left after the splits, and the morph on the split mesh found
+      // no start; the runs' paths differ, see the issue note).
       struct BeforeSplits {
         TetMesh mesh;
         UntangleResult untangled;
