@@ -675,8 +675,12 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     // 3. measure
     t0 = Clock::now();
     Eigen::VectorXd w = tetDensities(mesh, options.measure);
-    Eigen::VectorXd physical(nt), weighted(nt);
-    for (Eigen::Index t = 0; t < nt; ++t) physical(t) = signedVolume(mesh.V, mesh.T, t), weighted(t) = w(t) * physical(t);
+    Eigen::VectorXd physical, weighted;
+    auto measureTets = [&] {  // (again after edge splits)
+      physical.resize(nt), weighted.resize(nt);
+      for (Eigen::Index t = 0; t < nt; ++t) physical(t) = signedVolume(mesh.V, mesh.T, t), weighted(t) = w(t) * physical(t);
+    };
+    measureTets();
     const double totalWeighted = weighted.sum();
     int level = options.ballSubdivisions;
     if (level < 0) {
@@ -912,15 +916,15 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         std::vector<std::uint8_t> locks;
         int finishingRounds;
       };
+      auto fewTetsLeft = [&] {
+        return options.untangle.localRepairSweeps > 0 && !untangled.stopped && untangled.invertedAfter > 0 &&
+               untangled.invertedAfter <= kMaxSplitTets;
+      };
       std::optional<BeforeSplits> beforeSplits;
-      if (options.untangle.localRepairSweeps > 0 && !untangled.stopped && untangled.invertedAfter > 0 &&
-          untangled.invertedAfter <= kMaxSplitTets)
+      if (fewTetsLeft())
         beforeSplits = BeforeSplits{r.mesh, untangled, r.ballU, w, physical, weighted, r.targetVolume,
                                     jumps, fixed, locks, r.param.finishingRounds};
-      for (int splitRound = 0; splitRound < kSplitRounds && options.untangle.localRepairSweeps > 0 &&
-                               !untangled.stopped && untangled.invertedAfter > 0 &&
-                               untangled.invertedAfter <= kMaxSplitTets;
-           ++splitRound) {
+      for (int splitRound = 0; splitRound < kSplitRounds && fewTetsLeft(); ++splitRound) {
         std::vector<char> onBoundary(static_cast<size_t>(nv), 0);
         for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) onBoundary[static_cast<size_t>(r.boundaryVertices(k))] = 1;
         const EdgeSplits cut = splitEdges(r.mesh, edgesToSplit(untangled.U, mesh.T, onBoundary));
@@ -939,13 +943,10 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         for (const EdgeSplit& e : cut.splits)
           jumps[static_cast<size_t>(e.vertex)] = jumps[static_cast<size_t>(e.a)] && jumps[static_cast<size_t>(e.b)];
         const Eigen::VectorXd w0 = w;
-        w.resize(nt), physical.resize(nt), weighted.resize(nt), r.targetVolume.resize(nt);
-        for (Eigen::Index t = 0; t < nt; ++t) {
-          w(t) = w0(cut.parent[static_cast<size_t>(t)]);
-          physical(t) = signedVolume(mesh.V, mesh.T, t);
-          weighted(t) = w(t) * physical(t);
-          r.targetVolume(t) = weighted(t) * (r.domainVolume / totalWeighted);
-        }
+        w.resize(nt);
+        for (Eigen::Index t = 0; t < nt; ++t) w(t) = w0(cut.parent[static_cast<size_t>(t)]);
+        measureTets();
+        r.targetVolume = weighted * (r.domainVolume / totalWeighted);
         untangleOptions.targetVolumes = r.targetVolume;
         if (!locks.empty()) untangleOptions.cubeLocks = locks;
         r.param.splitEdges += static_cast<int>(cut.splits.size());

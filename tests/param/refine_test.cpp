@@ -16,12 +16,14 @@
 using namespace tet2spline;
 
 namespace {
+double tetVolume(const TetMesh& m, Eigen::Index t) {
+  const Eigen::Vector3d a = m.V.row(m.T(t, 0)), b = m.V.row(m.T(t, 1)), c = m.V.row(m.T(t, 2)), d = m.V.row(m.T(t, 3));
+  return (b - a).cross(c - a).dot(d - a) / 6.0;
+}
+
 double totalVolume(const TetMesh& m) {
   double v = 0;
-  for (Eigen::Index t = 0; t < m.numTets(); ++t) {
-    const Eigen::Vector3d a = m.V.row(m.T(t, 0)), b = m.V.row(m.T(t, 1)), c = m.V.row(m.T(t, 2)), d = m.V.row(m.T(t, 3));
-    v += (b - a).cross(c - a).dot(d - a) / 6.0;
-  }
+  for (Eigen::Index t = 0; t < m.numTets(); ++t) v += tetVolume(m, t);
   return v;
 }
 }  // namespace
@@ -43,11 +45,8 @@ TEST_P(RefineReal, SplittingChordsLeavesNoneAndKeepsTheSolid) {
   EXPECT_GT(mesh.numTets(), nt + chords);  // at least three tets around an interior edge
   EXPECT_EQ(countBoundaryChords(mesh), 0);
   EXPECT_EQ(countNonPositiveTets(mesh.V, mesh.T), 0);
-  for (Eigen::Index t = 0; t < mesh.numTets(); ++t) {  // later stages divide by the volume in doubles
-    const Eigen::Vector3d a = mesh.V.row(mesh.T(t, 0)), b = mesh.V.row(mesh.T(t, 1)), c = mesh.V.row(mesh.T(t, 2)),
-                          d = mesh.V.row(mesh.T(t, 3));
-    ASSERT_GT((b - a).cross(c - a).dot(d - a), 0) << "tet " << t;
-  }
+  for (Eigen::Index t = 0; t < mesh.numTets(); ++t)  // later stages divide by the volume in doubles
+    ASSERT_GT(tetVolume(mesh, t), 0) << "tet " << t;
   EXPECT_NEAR(totalVolume(mesh), volume, 1e-12 * std::abs(volume) * mesh.numTets());
   EXPECT_EQ(boundaryFaces(mesh).rows(), F0.rows());  // the boundary is untouched
   EXPECT_TRUE(analyzeSolid(mesh).valid());
@@ -105,20 +104,16 @@ TEST_P(RefineReal, SplittingEdgesCutsEveryTetAroundThem) {
   }
   EXPECT_EQ(countNonPositiveTets(mesh.V, mesh.T), 0);
   // Each tet's pieces fill it: their volumes add up to its own, and they keep its region.
-  auto volume = [](const TetMesh& m, Eigen::Index t) {
-    const Eigen::Vector3d a = m.V.row(m.T(t, 0)), b = m.V.row(m.T(t, 1)), c = m.V.row(m.T(t, 2)), d = m.V.row(m.T(t, 3));
-    return (b - a).cross(c - a).dot(d - a) / 6.0;
-  };
   Eigen::VectorXd pieces = Eigen::VectorXd::Zero(nt);
   for (Eigen::Index t = 0; t < mesh.numTets(); ++t) {
     const int p = cut.parent[static_cast<size_t>(t)];
     ASSERT_GE(p, 0);
     ASSERT_LT(p, nt);
     if (t < nt) EXPECT_EQ(p, t);  // a tet cut keeps its index for its first piece
-    pieces(p) += volume(mesh, t);
+    pieces(p) += tetVolume(mesh, t);
     EXPECT_EQ(mesh.region(t), before.region(p));
   }
-  for (Eigen::Index t = 0; t < nt; ++t) ASSERT_NEAR(pieces(t), volume(before, t), 1e-12 * volume(before, t)) << "tet " << t;
+  for (Eigen::Index t = 0; t < nt; ++t) ASSERT_NEAR(pieces(t), tetVolume(before, t), 1e-12 * tetVolume(before, t)) << "tet " << t;
   EXPECT_EQ(boundaryFaces(mesh), F);  // the boundary is untouched
   EXPECT_TRUE(analyzeSolid(mesh).valid());
   EXPECT_LT((mesh.pointFields[0].values - Eigen::MatrixXd(mesh.V)).cwiseAbs().maxCoeff(), 1e-12);
