@@ -166,14 +166,15 @@ struct UntangleOptions {
   /// tet, cones included, once) reach this many while inversions remain;
   /// 0 = no budget. Deterministic, unlike a time limit.
   double maxTetEvaluations = 0;
-  /// When a region's ε rounds end with at most this many tets inverted and
-  /// boundary triangles flipped, and not a tenth fewer than it started with,
-  /// the region stops growing (UntangleResult::stalled) and what is left
-  /// goes to the local repair: a few tets pinched by their neighbours, which
-  /// wider regions do not repair either. Measured on bunny00 scaled by
-  /// 1 + 10⁻⁹ (cube, final untangling): about 50 tets stayed inverted over
-  /// four regions, from 1820 to 176486 free vertices and 410 s, until the
-  /// budget ran out. 0 = grow until the budget or every vertex is free.
+  /// Once the fewest tets inverted plus boundary triangles flipped, at the
+  /// start or at the end of a region, is at most this many, a region that
+  /// does not end with a tenth fewer than that stops the growing
+  /// (UntangleResult::stalled) and what is left goes to the local repair: a
+  /// few tets pinched by their neighbours, which wider regions do not repair
+  /// either. Measured on bunny00 scaled by 1 + 10⁻⁹ (cube, final
+  /// untangling): about 60 tets stayed inverted over four regions, from 7173
+  /// to 176486 free vertices and over 300 s, until the budget ran out.
+  /// 0 = grow until the budget or every vertex is free.
   int stallBelow = 0;
   /// Cube: interior vertices stay in [0, 1]³ (those outside at the start
   /// are mirrored in through the face): a bijection onto the cube has them
