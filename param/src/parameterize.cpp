@@ -875,7 +875,12 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // the budget would pay for growing regions again: measured on bunny00
       // scaled by 1 + 10⁻⁹, a finishing round that ran its regions until they
       // stalled took 30 s for 80 -> 58, the next grew to every vertex.
+      // (With the whole boundary free, across cube edges, interior vertices
+      // kept in the cube.)
       auto finishingRounds = [&](int& leftOver) {
+        freeTheBoundary();
+        untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
+        untangleOptions.keepInteriorInCube = true;
         int kept = 0;
         for (int round = 0; round < kFinishingRounds && leftOver > 0; ++round) {
           UntangleResult finished = runPhase(untangled.U, true);
@@ -891,12 +896,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       int leftOver = untangled.invertedAfter + untangled.flippedBoundaryTriangles;
       if (leftOver > 0 && (untangled.budgetExhausted || untangled.stalled) && !untangled.stopped &&
           options.untangle.localRepairSweeps > 0 &&
-          leftOver <= std::max(100.0, options.untangle.localRepairFraction * static_cast<double>(nt))) {
-        freeTheBoundary();
-        untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
-        untangleOptions.keepInteriorInCube = true;
+          leftOver <= std::max(100.0, options.untangle.localRepairFraction * static_cast<double>(nt)))
         r.param.finishingRounds += finishingRounds(leftOver);
-      }
       // Tets that no round repairs, pinched between their neighbours (on
       // bunny00 scaled by 1 + 10⁻⁹ and 1 + 2·10⁻⁹, with interior vertices
       // kept in the cube: 1 and 3 tets, e.g. one boundary and three interior
@@ -909,7 +910,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // valid, everything goes back to before the splits, for the morph
       // (measured: spool on the cube, on one of three runs of the same input,
       // 3 tets left after the splits, and the morph on the split mesh found
-      // no start; the runs' paths differ, see the issue note).
+      // no start; two later runs alone, of a later build, took the same path
+      // as each other, so whether the path varies from run to run is open).
       struct BeforeSplits {
         TetMesh mesh;
         UntangleResult untangled;
@@ -954,9 +956,6 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         untangleOptions.targetVolumes = r.targetVolume;
         if (!locks.empty()) untangleOptions.cubeLocks = locks;
         r.param.splitEdges += static_cast<int>(cut.splits.size());
-        freeTheBoundary();
-        untangleOptions.cubeAcrossEdges = options.domain == ParamDomain::Cube;
-        untangleOptions.keepInteriorInCube = true;
         leftOver = countNonPositiveTets(untangled.U, mesh.T) + untangled.flippedBoundaryTriangles;
         untangled.invertedAfter = leftOver - untangled.flippedBoundaryTriangles;
         r.param.finishingRounds += finishingRounds(leftOver);
