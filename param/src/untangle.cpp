@@ -470,7 +470,8 @@ std::vector<int> mortonOrder(const Eigen::MatrixX3d& points, const Eigen::Matrix
       int k = 0;
       for (int j = 0; j < 4; ++j)
         if (T(t, j) < n) c += points.row(T(t, j)), ++k;
-      const Eigen::RowVector3d q = ((c / std::max(k, 1) - lo).cwiseQuotient(span) * 2097151.0).cwiseMax(0.0).cwiseMin(2097151.0);
+      Eigen::RowVector3d q = (c / std::max(k, 1) - lo).cwiseQuotient(span) * 2097151.0;
+      for (int d = 0; d < 3; ++d) q[d] = std::isfinite(q[d]) ? std::clamp(q[d], 0.0, 2097151.0) : 0.0;  // (an order only)
       keyed[static_cast<size_t>(t)] = {spread(static_cast<std::uint64_t>(q[0])) | spread(static_cast<std::uint64_t>(q[1])) << 1 |
                                            spread(static_cast<std::uint64_t>(q[2])) << 2,
                                        static_cast<int>(t)};
