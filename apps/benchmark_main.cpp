@@ -123,6 +123,11 @@ int runPipeline(const std::string& cli, const std::string& data, const std::vect
       std::cout << std::setw(6) << j.value("ot_iterations", 0) << std::setw(9) << fixed(j["peak_rss_mib"].get<double>(), 0)
                 << std::setw(14) << (fixed(j.value("total_min", 0.0), 1) + "-" + fixed(j.value("total_max", 0.0), 1))
                 << std::endl;
+      std::string ratios;
+      for (const auto& one : j["per_run"])
+        if (one.contains("fit_rms_ratio_8_to_16"))
+          ratios += (ratios.empty() ? "" : ", ") + fixed(one["fit_rms_ratio_8_to_16"].get<double>(), 3);
+      if (!ratios.empty()) std::cout << "  fit RMS error 8³ / 16³ elements, per run: " << ratios << std::endl;
       if (j["failed_runs"].get<int>() > 0) status = j.value("exit_status", 5);
     } catch (const Error& e) {
       std::cerr << "tet2spline_bench: " << e.what() << "\n";

@@ -33,8 +33,9 @@ void ParamStageOptions::addTo(CLI::App* cmd) {
       ->check(CLI::Range(0.0, 1.0))->capture_default_str();
   cmd->add_option("--cube-sites", cubeSites,
                   "cube: transport sites from the ball map by the radial stretch (--site-stretch) or by a "
-                  "volume-preserving map of the ball onto the cube")
-      ->check(CLI::IsMember({"stretch", "equal-volume"}))->capture_default_str();
+                  "volume-preserving map of the ball onto the cube; auto: equal-volume when the boundary is "
+                  "smooth (no creases or sharp tips), else stretch")
+      ->check(CLI::IsMember({"auto", "stretch", "equal-volume"}))->capture_default_str();
   cmd->add_option("--interior-smoothing", interiorSmoothing,
                   "sweeps of smoothing of the interior after the boundary's (0 = none)")
       ->check(CLI::Range(0, 100))->capture_default_str();
@@ -47,7 +48,9 @@ ParamOptions ParamStageOptions::toParamOptions() const {
   o.boundarySmoothing.sweeps = boundarySmoothing;
   o.boundarySmoothing.interiorSweeps = interiorSmoothing;
   o.cubeSiteStretch = siteStretch;
-  o.cubeSites = cubeSites == "equal-volume" ? ParamOptions::CubeSites::EqualVolume : ParamOptions::CubeSites::Stretch;
+  o.cubeSites = cubeSites == "equal-volume" ? ParamOptions::CubeSites::EqualVolume
+                : cubeSites == "stretch"    ? ParamOptions::CubeSites::Stretch
+                                            : ParamOptions::CubeSites::Auto;
   if (o.cubeSites == ParamOptions::CubeSites::EqualVolume && siteStretch != 0)
     throw Error(ErrorKind::Usage, "--site-stretch applies to --cube-sites stretch only");
   for (const std::string& d : densities) {
@@ -188,17 +191,22 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   setPath(report, "param.untangler", options.untangler);
   if (po.domain == ParamDomain::Cube && r.ot.ran) {
     std::ostringstream sites;
-    if (po.cubeSites == ParamOptions::CubeSites::EqualVolume)
+    if (r.param.cubeSites == ParamOptions::CubeSites::EqualVolume)
       sites << "equal-volume";
     else
       sites << "stretch " << po.cubeSiteStretch;
     setPath(report, "param.cube_sites", sites.str());
+    setPath(report, "param.cube_sites_requested", options.cubeSites);
+    setPath(report, "param.boundary_normal_angle_p99", r.param.boundaryNormalAngleP99);
   }
   for (const std::string& w : r.warnings) log.stage("warning", w);
   std::ostringstream line;
   line << (r.ot.ran ? options.domain : std::string("ball (harmonic)")) << ", " << r.mesh.numVertices() << " vertices";
   if (r.chordsSplit) line << " (" << r.chordsSplit << " chords split)";
   line << "; ball map " << r.ball.invertedTets << " inverted";
+  if (r.ot.ran && po.domain == ParamDomain::Cube)
+    line << "; sites " << (r.param.cubeSites == ParamOptions::CubeSites::EqualVolume ? "equal-volume" : "stretch")
+         << " (boundary normal angle p99 " << r.param.boundaryNormalAngleP99 << "°)";
   if (r.ot.ran) line << "; OT " << r.ot.iterations << " Newton iterations, mass error " << r.ot.maxRelativeMassError;
   line << "; " << r.param.invertedTets << " inverted tets, volume ratio p1/p50/p99 " << r.param.volumeRatio.p1 << '/'
        << r.param.volumeRatio.p50 << '/' << r.param.volumeRatio.p99 << " in " << r.timings.total << " s";

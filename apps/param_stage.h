@@ -20,7 +20,7 @@ struct ParamStageOptions {
   int boundarySmoothing = BoundarySmoothingOptions().sweeps;
   int interiorSmoothing = BoundarySmoothingOptions().interiorSweeps;
   double siteStretch = ParamOptions().cubeSiteStretch;
-  std::string cubeSites = "stretch";
+  std::string cubeSites = "auto";
 
   void addTo(CLI::App* cmd);
   /// Throws Error(Usage) for a malformed --density, or --site-stretch with

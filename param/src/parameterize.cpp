@@ -716,11 +716,18 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // 4. transport
       t0 = Clock::now();
       Eigen::MatrixX3d y = r.ballU;
-      if (options.domain == ParamDomain::Cube)
+      if (options.domain == ParamDomain::Cube) {
+        r.param.boundaryNormalAngleP99 = normalAngleQuantile(mesh.V, r.boundaryFaces, 0.99);
+        r.param.cubeSites = options.cubeSites != ParamOptions::CubeSites::Auto ? options.cubeSites
+                            : options.cubeSiteStretch > 0 ||
+                                      !(r.param.boundaryNormalAngleP99 < options.smoothBoundaryDegrees)
+                                ? ParamOptions::CubeSites::Stretch
+                                : ParamOptions::CubeSites::EqualVolume;
         for (Eigen::Index v = 0; v < nv; ++v)
-          y.row(v) = options.cubeSites == ParamOptions::CubeSites::EqualVolume
+          y.row(v) = r.param.cubeSites == ParamOptions::CubeSites::EqualVolume
                          ? equalVolumeSite(y.row(v).transpose())
                          : stretchTowardsCube(y.row(v).transpose(), options.cubeSiteStretch);
+      }
       std::vector<int> siteStart;
       Eigen::MatrixX3d sites;
       Eigen::VectorXd masses;

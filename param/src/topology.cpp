@@ -576,6 +576,43 @@ SurfaceReport analyzeSurface(const SurfaceMesh& surface, bool checkSelfIntersect
   return r;
 }
 
+double normalAngleQuantile(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, double p) {
+  if (!(p >= 0 && p <= 1)) throw Error(ErrorKind::Usage, "normalAngleQuantile: quantile " + std::to_string(p) + " outside [0, 1]");
+  if (F.size() > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= X.rows()))
+    throw Error(ErrorKind::Input, "normalAngleQuantile: a triangle index outside the " + std::to_string(X.rows()) + " points");
+  std::vector<Eigen::Vector3d> normal(static_cast<size_t>(F.rows()));
+  struct HalfEdge {
+    int a, b, face;
+  };
+  std::vector<HalfEdge> halves;
+  halves.reserve(static_cast<size_t>(F.rows()) * 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = X.row(F(f, 0)), b = X.row(F(f, 1)), c = X.row(F(f, 2));
+    normal[static_cast<size_t>(f)] = (b - a).cross(c - a).normalized();
+    for (int k = 0; k < 3; ++k) {
+      const int u = F(f, k), v = F(f, (k + 1) % 3);
+      halves.push_back({std::min(u, v), std::max(u, v), static_cast<int>(f)});
+    }
+  }
+  std::sort(halves.begin(), halves.end(),
+            [](const HalfEdge& x, const HalfEdge& y) { return x.a != y.a ? x.a < y.a : x.b != y.b ? x.b < y.b : x.face < y.face; });
+  std::vector<double> angles;
+  for (size_t i = 0; i < halves.size();) {
+    size_t j = i;
+    while (j < halves.size() && halves[j].a == halves[i].a && halves[j].b == halves[i].b) ++j;
+    if (j - i == 2) {
+      const double c = normal[static_cast<size_t>(halves[i].face)].dot(normal[static_cast<size_t>(halves[i + 1].face)]);
+      // (a degenerate triangle's NaN normal counts as a crease)
+      angles.push_back(std::isfinite(c) ? std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / M_PI : 180.0);
+    }
+    i = j;
+  }
+  if (angles.empty()) return 0;
+  const size_t k = static_cast<size_t>(std::llround(p * static_cast<double>(angles.size() - 1)));
+  std::nth_element(angles.begin(), angles.begin() + static_cast<std::ptrdiff_t>(k), angles.end());
+  return angles[k];
+}
+
 void requireValidSurface(const SurfaceReport& report, const std::string& file) {
   if (report.valid()) return;
   const ErrorKind kind = report.problemKinds.empty() ? ErrorKind::Topology : report.problemKinds.front();

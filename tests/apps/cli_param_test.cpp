@@ -134,12 +134,16 @@ TEST(CliParam, NewtonUntanglerGivesAPositiveParameterizationOnBothDomains) {
 
 // --cube-sites: the report says which sites the transport started from, and
 // the equal-volume sites give a valid map with the boundary on the cube.
+// auto (the default) takes the stretch on blob-closed, whose sharp tips put
+// its boundary normal angle's 99th percentile far above the threshold.
 TEST(CliParam, CubeSitesAreReportedAndEqualVolumeSitesGiveAValidMap) {
   const auto dir = t2stest::scratchDir("cli_param_cube_sites");
-  for (const std::string sites : {"stretch", "equal-volume"}) {
+  for (const std::string sites : {"stretch", "equal-volume", "auto"}) {
     const json j = paramWithValidMap(dir, sites, "--cube-sites " + sites);
     ASSERT_FALSE(j.is_null()) << sites;
-    EXPECT_EQ(j["param"]["cube_sites"], sites == "stretch" ? "stretch 0" : "equal-volume");
+    EXPECT_EQ(j["param"]["cube_sites"], sites == "equal-volume" ? "equal-volume" : "stretch 0");
+    EXPECT_EQ(j["param"]["cube_sites_requested"], sites);
+    EXPECT_GT(j["param"]["boundary_normal_angle_p99"].get<double>(), 45.0) << sites;
     EXPECT_LE(j["ot"]["max_relative_mass_error"].get<double>(), 1e-6);
   }
 }

@@ -139,10 +139,45 @@ TEST(Parameterize, EqualVolumeCubeSitesKeepTheMapValidAndTheRegionFractions) {
   ParamOptions o;
   o.cubeSites = ParamOptions::CubeSites::EqualVolume;
   const ParamResult r = expectValidTwoRegionCube(mesh, o);
-  const ParamResult inscribed = expectValidTwoRegionCube(mesh, ParamOptions());
+  ParamOptions stretch;
+  stretch.cubeSites = ParamOptions::CubeSites::Stretch;
+  const ParamResult inscribed = expectValidTwoRegionCube(mesh, stretch);
+  EXPECT_EQ(r.param.cubeSites, ParamOptions::CubeSites::EqualVolume);
+  EXPECT_EQ(inscribed.param.cubeSites, ParamOptions::CubeSites::Stretch);
   std::cout << "OT Newton iterations: equal-volume sites " << r.ot.iterations << ", inscribed ball " << inscribed.ot.iterations
             << std::endl;
   EXPECT_LT(r.ot.iterations, inscribed.ot.iterations);
+}
+
+// CubeSites::Auto (the default) is one of the two sites by the boundary's
+// smoothness, the very same map as asking for it: equal-volume on the
+// sphere (its normals turn by about an edge over the radius), stretch when
+// the threshold is below the sphere's angles, and stretch when a stretch is
+// asked for.
+TEST(Parameterize, AutoCubeSitesFollowTheBoundarysSmoothness) {
+  const TetMesh mesh = twoRegionSphere();
+  ParamOptions o;
+  o.domain = ParamDomain::Cube;
+  ASSERT_EQ(o.cubeSites, ParamOptions::CubeSites::Auto);
+  const ParamResult smooth = parameterize(mesh, o);
+  ASSERT_TRUE(smooth.status.ok) << smooth.status.message;
+  EXPECT_EQ(smooth.param.cubeSites, ParamOptions::CubeSites::EqualVolume);
+  EXPECT_GT(smooth.param.boundaryNormalAngleP99, 1.0);
+  EXPECT_LT(smooth.param.boundaryNormalAngleP99, o.smoothBoundaryDegrees);
+  ParamOptions ev = o;
+  ev.cubeSites = ParamOptions::CubeSites::EqualVolume;
+  EXPECT_TRUE(parameterize(mesh, ev).U == smooth.U);
+
+  o.smoothBoundaryDegrees = smooth.param.boundaryNormalAngleP99;  // (not below it: creased)
+  const ParamResult creased = parameterize(mesh, o);
+  EXPECT_EQ(creased.param.cubeSites, ParamOptions::CubeSites::Stretch);
+  ParamOptions st = o;
+  st.cubeSites = ParamOptions::CubeSites::Stretch;
+  EXPECT_TRUE(parameterize(mesh, st).U == creased.U);
+
+  o.smoothBoundaryDegrees = ParamOptions{}.smoothBoundaryDegrees;
+  o.cubeSiteStretch = 0.5;
+  EXPECT_EQ(parameterize(mesh, o).param.cubeSites, ParamOptions::CubeSites::Stretch);
 }
 
 // The final untangling's work budget (ParamOptions::finalUntangleWork): a

@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
 
 #include "param/test_shapes.h"
 #include "test_data.h"
 #include "tet2spline/io/mesh_io.h"
+#include "tet2spline/param/parameterize.h"
 
 using namespace tet2spline;
 
@@ -323,4 +325,69 @@ TEST(AnalyzeSurfaceReal, SelfIntersectionCheckOnBunnyIsFast) {
   RecordProperty("analyze_surface_seconds", std::to_string(seconds));
   std::printf("analyzeSurface(bunny00, %d faces) with self-intersections: %.3f s\n", r.faces, seconds);
   EXPECT_TRUE(r.valid());
+}
+
+// normalAngleQuantile: the angle between adjacent triangles' normals.
+TEST(NormalAngleQuantile, CubeFacesMeetAtRightAnglesAndShareTheirDiagonalsFlat) {
+  const TetMesh cube = t2stest::cube6();
+  const Eigen::MatrixX3i F = boundaryFaces(cube);
+  ASSERT_EQ(F.rows(), 12);
+  // 18 shared edges: 12 cube edges at 90°, 6 face diagonals at 0°.
+  EXPECT_NEAR(normalAngleQuantile(cube.V, F, 1.0), 90.0, 1e-9);
+  EXPECT_NEAR(normalAngleQuantile(cube.V, F, 0.99), 90.0, 1e-9);
+  EXPECT_NEAR(normalAngleQuantile(cube.V, F, 0.0), 0.0, 1e-6);
+  EXPECT_NEAR(normalAngleQuantile(cube.V, F, 0.25), 0.0, 1e-6);
+  EXPECT_NEAR(normalAngleQuantile(cube.V, F, 0.5), 90.0, 1e-9);
+}
+
+TEST(NormalAngleQuantile, RefiningASphereHalvesItsAngles) {
+  // On a sphere the angle is about an edge length over the radius: each
+  // subdivision halves it, whatever the radius or the position.
+  double previous = 180;
+  for (int level = 2; level <= 5; ++level) {
+    const SurfaceMesh s = t2stest::sphere(level, 3.0, Eigen::RowVector3d(1, -2, 5));
+    const double a = normalAngleQuantile(s.V, s.F, 0.99);
+    EXPECT_GT(a, 0) << level;
+    if (level > 2) {
+      EXPECT_NEAR(a / previous, 0.5, 0.1) << level;
+    }
+    const SurfaceMesh unit = t2stest::sphere(level);
+    EXPECT_NEAR(normalAngleQuantile(unit.V, unit.F, 0.99), a, 1e-9) << level;
+    previous = a;
+  }
+  EXPECT_LT(previous, 5.0);
+}
+
+TEST(NormalAngleQuantile, EdgesOfOneTriangleOnlyAreSkippedAndBadArgumentsThrow) {
+  Eigen::MatrixX3d X(4, 3);
+  X << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  Eigen::MatrixX3i one(1, 3);
+  one << 0, 1, 2;
+  EXPECT_EQ(normalAngleQuantile(X, one, 0.99), 0.0);
+  Eigen::MatrixX3i two(2, 3);
+  two << 0, 1, 2, 0, 3, 1;  // a right angle along edge 0-1
+  EXPECT_NEAR(normalAngleQuantile(X, two, 0.5), 90.0, 1e-9);
+  EXPECT_THROW(normalAngleQuantile(X, two, 1.5), Error);
+  EXPECT_THROW(normalAngleQuantile(X, two, -0.1), Error);
+  two(1, 2) = 4;
+  EXPECT_THROW(normalAngleQuantile(X, two, 0.5), Error);
+}
+
+// The rule ParamOptions::CubeSites::Auto applies to the genus-0 meshes of
+// the test data: the smooth ones (no creases, no sharp tips) stay well
+// below smoothBoundaryDegrees, those with creases or tips well above it.
+TEST(NormalAngleQuantileReal, SeparatesTheSmoothMeshesFromTheCreasedOnes) {
+  const double threshold = ParamOptions{}.smoothBoundaryDegrees;
+  for (const char* name : {"blobby", "retinal", "bunny00"}) {
+    const SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
+    const double a = normalAngleQuantile(s.V, s.F, 0.99);
+    std::printf("%s: boundary normal angle p99 %.1f°\n", name, a);
+    EXPECT_LT(a, threshold - 4) << name;
+  }
+  for (const char* name : {"blob-closed", "part", "spool", "hand", "triceratops", "fandisk", "homer"}) {
+    const SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
+    const double a = normalAngleQuantile(s.V, s.F, 0.99);
+    std::printf("%s: boundary normal angle p99 %.1f°\n", name, a);
+    EXPECT_GT(a, threshold + 4) << name;
+  }
 }

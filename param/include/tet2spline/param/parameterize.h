@@ -135,9 +135,26 @@ struct ParamOptions {
   /// inversions blobby 529 -> 715, two_material 471 -> 817. bunny00 (one
   /// run): transport 27 -> 19 s, fit RMS 8³ -> 16³ 0.00858 -> 0.00384 (2.23
   /// times; 1.98 at α = 0), final untangling as slow (305 s). A trade, so
-  /// not the default.
-  enum class CubeSites { Stretch, EqualVolume };
-  CubeSites cubeSites = CubeSites::Stretch;
+  /// not the default for every input.
+  /// Auto (the default): EqualVolume when the outer boundary is smooth (the
+  /// 99th percentile of the angle between adjacent boundary triangles'
+  /// normals, topology.h normalAngleQuantile, below smoothBoundaryDegrees),
+  /// Stretch otherwise (creases, sharp tips, CAD solids), and Stretch when
+  /// cubeSiteStretch > 0 (a stretch asked for). On the smooth
+  /// inputs the sites' gain is the fit's (measured again, the default ->
+  /// EqualVolume, fit RMS 8³ -> 16³: blobby 0.00275 -> 0.00118 (2.33 times)
+  /// against 0.00211 -> 0.00097 (2.17), retinal 0.00537 -> 0.00240 (2.24)
+  /// against 0.00454 -> 0.00210 (2.16), bunny00 0.0102 -> 0.00517 (1.97)
+  /// against 0.00859 -> 0.00395 (2.17), whose total also went 311 s
+  /// (median of three draws) -> 224 s (one run)); on the CAD block the
+  /// loss is the fit's. ParamResult::Figures says which sites ran.
+  enum class CubeSites { Auto, Stretch, EqualVolume };
+  CubeSites cubeSites = CubeSites::Auto;
+  /// Cube, CubeSites::Auto: the largest 99th percentile of the normal angle
+  /// (degrees) at which the boundary counts as smooth. The libcgal-demo
+  /// meshes fall into two groups: 16–24° (bunny00, retinal, blobby) and
+  /// 43° or more (homer, blob-closed, triceratops, part, fandisk, spool).
+  double smoothBoundaryDegrees = 30.0;
   /// One OT site per region where regions meet (parameterize.cpp buildSites):
   /// Off, On, or Auto (default): on when the density jumps somewhere (a
   /// vertex whose tets have different densities), so volume-preserving runs
@@ -297,6 +314,11 @@ struct ParamResult {
     /// over 8³ cells of Ω's bounding box, with the target volumes.
     double misplacedVolume = 0;
     int cornerVertices = 0, edgeVertices = 0;  ///< cube: boundary vertices put on corners / edges
+    /// Cube with transport: the sites the transport started from (never Auto)
+    /// and the outer boundary's 99th-percentile normal angle (degrees) that
+    /// chose them under CubeSites::Auto.
+    ParamOptions::CubeSites cubeSites = ParamOptions::CubeSites::Stretch;
+    double boundaryNormalAngleP99 = 0;
     int flippedBoundaryTriangles = 0;  ///< exact, boundary triangles flipped on ∂Ω (seen from its centre)
     int finishingRounds = 0;           ///< ε rounds after the final untangling's budget was spent or its regions stalled (and after edge splits), each leaving fewer
     int splitEdges = 0;                ///< edges split for tets the final untangling's rounds left inverted (new vertices)
