@@ -625,6 +625,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     throw Error(ErrorKind::Usage, "without transport the parameterization is the harmonic ball map: use --domain ball");
   if (!(options.cubeSiteStretch >= 0 && options.cubeSiteStretch <= 1))
     throw Error(ErrorKind::Usage, "cubeSiteStretch must be in [0, 1]");
+  if (!(options.smoothBoundaryDegrees >= 0 && options.smoothBoundaryDegrees <= 180))
+    throw Error(ErrorKind::Usage, "smoothBoundaryDegrees must be in [0, 180]");
   ParamResult r;
   auto report = [&](double fraction, const std::string& what) {
     if (options.progress && !options.progress(fraction, what)) throw Status::failure("stopped during " + what);

@@ -178,6 +178,10 @@ TEST(Parameterize, AutoCubeSitesFollowTheBoundarysSmoothness) {
   o.smoothBoundaryDegrees = ParamOptions{}.smoothBoundaryDegrees;
   o.cubeSiteStretch = 0.5;
   EXPECT_EQ(parameterize(mesh, o).param.cubeSites, ParamOptions::CubeSites::Stretch);
+  for (const double bad : {-1.0, 181.0, std::nan("")}) {
+    o.smoothBoundaryDegrees = bad;
+    EXPECT_THROW(parameterize(mesh, o), Error) << bad;
+  }
 }
 
 // The final untangling's work budget (ParamOptions::finalUntangleWork): a
