@@ -34,7 +34,7 @@ void ParamStageOptions::addTo(CLI::App* cmd) {
   cmd->add_option("--cube-sites", cubeSites,
                   "cube: transport sites from the ball map by the radial stretch (--site-stretch) or by a "
                   "volume-preserving map of the ball onto the cube; auto: equal-volume when the boundary is "
-                  "smooth (no creases or sharp tips), else stretch")
+                  "smooth and curved (no creases, sharp tips or large planar faces), else stretch")
       ->check(CLI::IsMember({"auto", "stretch", "equal-volume"}))->capture_default_str();
   cmd->add_option("--interior-smoothing", interiorSmoothing,
                   "sweeps of smoothing of the interior after the boundary's (0 = none)")
@@ -198,6 +198,7 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
     setPath(report, "param.cube_sites", sites.str());
     setPath(report, "param.cube_sites_requested", options.cubeSites);
     setPath(report, "param.boundary_normal_angle_p99", r.param.boundaryNormalAngleP99);
+    setPath(report, "param.boundary_planar_share", r.param.boundaryPlanarShare);
   }
   for (const std::string& w : r.warnings) log.stage("warning", w);
   std::ostringstream line;
@@ -206,7 +207,8 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   line << "; ball map " << r.ball.invertedTets << " inverted";
   if (r.ot.ran && po.domain == ParamDomain::Cube)
     line << "; sites " << (r.param.cubeSites == ParamOptions::CubeSites::EqualVolume ? "equal-volume" : "stretch")
-         << " (boundary normal angle p99 " << r.param.boundaryNormalAngleP99 << "°)";
+         << " (boundary normal angle p99 " << r.param.boundaryNormalAngleP99 << "°, planar share "
+         << r.param.boundaryPlanarShare << ")";
   if (r.ot.ran) line << "; OT " << r.ot.iterations << " Newton iterations, mass error " << r.ot.maxRelativeMassError;
   line << "; " << r.param.invertedTets << " inverted tets, volume ratio p1/p50/p99 " << r.param.volumeRatio.p1 << '/'
        << r.param.volumeRatio.p50 << '/' << r.param.volumeRatio.p99 << " in " << r.timings.total << " s";

@@ -576,10 +576,17 @@ SurfaceReport analyzeSurface(const SurfaceMesh& surface, bool checkSelfIntersect
   return r;
 }
 
-double normalAngleQuantile(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, double p) {
-  if (!(p >= 0 && p <= 1)) throw Error(ErrorKind::Usage, "normalAngleQuantile: quantile " + std::to_string(p) + " outside [0, 1]");
+namespace {
+
+struct SharedEdge {
+  double degrees;  // between the normals of its two triangles
+  int f0, f1;      // those triangles
+};
+
+// Every edge that exactly two triangles of F share.
+std::vector<SharedEdge> sharedEdges(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, const char* function) {
   if (F.size() > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= X.rows()))
-    throw Error(ErrorKind::Input, "normalAngleQuantile: a triangle index outside the " + std::to_string(X.rows()) + " points");
+    throw Error(ErrorKind::Input, std::string(function) + ": a triangle index outside the " + std::to_string(X.rows()) + " points");
   std::vector<Eigen::Vector3d> normal(static_cast<size_t>(F.rows()));
   struct HalfEdge {
     int a, b, face;
@@ -596,21 +603,83 @@ double normalAngleQuantile(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F,
   }
   std::sort(halves.begin(), halves.end(),
             [](const HalfEdge& x, const HalfEdge& y) { return x.a != y.a ? x.a < y.a : x.b != y.b ? x.b < y.b : x.face < y.face; });
-  std::vector<double> angles;
+  std::vector<SharedEdge> edges;
   for (size_t i = 0; i < halves.size();) {
     size_t j = i;
     while (j < halves.size() && halves[j].a == halves[i].a && halves[j].b == halves[i].b) ++j;
     if (j - i == 2) {
       const double c = normal[static_cast<size_t>(halves[i].face)].dot(normal[static_cast<size_t>(halves[i + 1].face)]);
       // (a degenerate triangle's NaN normal counts as a crease)
-      angles.push_back(std::isfinite(c) ? std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / M_PI : 180.0);
+      edges.push_back({std::isfinite(c) ? std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / M_PI : 180.0,
+                       halves[i].face, halves[i + 1].face});
     }
     i = j;
   }
+  return edges;
+}
+
+}  // namespace
+
+double normalAngleQuantile(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, double p, double ignoreBelow) {
+  if (!(p >= 0 && p <= 1)) throw Error(ErrorKind::Usage, "normalAngleQuantile: quantile " + std::to_string(p) + " outside [0, 1]");
+  if (!(ignoreBelow >= 0)) throw Error(ErrorKind::Usage, "normalAngleQuantile: angle " + std::to_string(ignoreBelow) + " below 0");
+  std::vector<double> angles;
+  for (const SharedEdge& e : sharedEdges(X, F, "normalAngleQuantile"))
+    if (e.degrees >= ignoreBelow) angles.push_back(e.degrees);
   if (angles.empty()) return 0;
   const size_t k = static_cast<size_t>(std::llround(p * static_cast<double>(angles.size() - 1)));
   std::nth_element(angles.begin(), angles.begin() + static_cast<std::ptrdiff_t>(k), angles.end());
   return angles[k];
+}
+
+double planarShare(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, double degrees, double minPatch) {
+  if (!(degrees >= 0)) throw Error(ErrorKind::Usage, "planarShare: angle " + std::to_string(degrees) + " below 0");
+  if (!(minPatch >= 0 && minPatch <= 1))
+    throw Error(ErrorKind::Usage, "planarShare: patch share " + std::to_string(minPatch) + " outside [0, 1]");
+  const std::vector<SharedEdge> edges = sharedEdges(X, F, "planarShare");
+  const Eigen::Index nf = F.rows();
+  std::vector<std::vector<int>> next(static_cast<size_t>(nf));
+  for (const SharedEdge& e : edges) {
+    next[static_cast<size_t>(e.f0)].push_back(e.f1);
+    next[static_cast<size_t>(e.f1)].push_back(e.f0);
+  }
+  std::vector<Eigen::Vector3d> normal(static_cast<size_t>(nf));
+  std::vector<double> area(static_cast<size_t>(nf));
+  double total = 0;
+  for (Eigen::Index f = 0; f < nf; ++f) {
+    const Eigen::Vector3d a = X.row(F(f, 0)), b = X.row(F(f, 1)), c = X.row(F(f, 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a);
+    area[static_cast<size_t>(f)] = 0.5 * n.norm();
+    normal[static_cast<size_t>(f)] = n.normalized();
+    total += area[static_cast<size_t>(f)];
+  }
+  if (!(total > 0)) return 0;
+  // Patches grown from each unvisited triangle over shared edges to the
+  // triangles whose normal is within `degrees` of the seed's (not of the
+  // neighbour's: a finely meshed curved surface does not chain into one).
+  const double cosine = std::cos(degrees * M_PI / 180.0);
+  std::vector<char> seen(static_cast<size_t>(nf), 0);
+  std::vector<int> stack;
+  double planar = 0;
+  for (Eigen::Index seed = 0; seed < nf; ++seed) {
+    if (seen[static_cast<size_t>(seed)]) continue;
+    const Eigen::Vector3d n0 = normal[static_cast<size_t>(seed)];
+    double patch = 0;
+    seen[static_cast<size_t>(seed)] = 1;
+    stack.assign(1, static_cast<int>(seed));
+    while (!stack.empty()) {
+      const int f = stack.back();
+      stack.pop_back();
+      patch += area[static_cast<size_t>(f)];
+      for (int g : next[static_cast<size_t>(f)])
+        if (!seen[static_cast<size_t>(g)] && normal[static_cast<size_t>(g)].dot(n0) >= cosine) {
+          seen[static_cast<size_t>(g)] = 1;
+          stack.push_back(g);
+        }
+    }
+    if (patch >= minPatch * total) planar += patch;
+  }
+  return planar / total;
 }
 
 void requireValidSurface(const SurfaceReport& report, const std::string& file) {

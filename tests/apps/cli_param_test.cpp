@@ -144,6 +144,7 @@ TEST(CliParam, CubeSitesAreReportedAndEqualVolumeSitesGiveAValidMap) {
     EXPECT_EQ(j["param"]["cube_sites"], sites == "equal-volume" ? "equal-volume" : "stretch 0");
     EXPECT_EQ(j["param"]["cube_sites_requested"], sites);
     EXPECT_GT(j["param"]["boundary_normal_angle_p99"].get<double>(), 45.0) << sites;
+    EXPECT_GE(j["param"]["boundary_planar_share"].get<double>(), 0.0) << sites;
     EXPECT_LE(j["ot"]["max_relative_mass_error"].get<double>(), 1e-6);
   }
 }

@@ -29,6 +29,7 @@
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/parameterize.h"
 #include "tet2spline/param/tetrahedralize.h"
+#include "tet2spline/param/topology.h"
 
 using namespace tet2spline;
 
@@ -183,3 +184,40 @@ INSTANTIATE_TEST_SUITE_P(Genus0, ParamMorphFallback,
                            return t2stest::testName(std::get<0>(info.param)) +
                                   "_" + domainName(std::get<1>(info.param));
                          });
+
+// The rule of ParamOptions::CubeSites::Auto on the boundaries the command
+// line meshes: the smooth, curved meshes of the test data (bunny00,
+// retinal, blobby) stay well inside it; the others have creases or sharp
+// tips (normal angle p99 above smoothBoundaryDegrees, edges inside planar
+// faces left out) or, the CAD solids, mostly planar faces (planarShare at
+// 0.1°, patches of 1% or more, above flatBoundaryShare), fillets or not.
+// Measured: blobby 23.5°, retinal 24.7°, bunny00 16.4°, all three with no
+// planar patch; blob-closed 57.5°, homer 42.7°, triceratops 91.1°, fandisk
+// 90.2°, part 101.2°, spool 106.9°, hand 107.4°; bracket.step 12.7° and
+// 0.69 planar, block_with_void.step 13.8° and 0.64. 23 s (TetGen).
+TEST(CubeSitesRule, SmoothCurvedMeshesAreTheOnlyOnesTakingTheEqualVolumeSites) {
+  const ParamOptions defaults;
+  auto measure = [](const TetMesh& mesh, const std::string& name) {
+    const Eigen::MatrixX3i F = boundaryFaces(mesh);
+    const double angle = normalAngleQuantile(mesh.V, F, 0.99, 0.1), planar = planarShare(mesh.V, F, 0.1, 0.01);
+    std::cout << name << ": boundary normal angle p99 " << angle << "°, planar share " << planar << std::endl;
+    return std::make_pair(angle, planar);
+  };
+  for (const char* name : {"blobby", "retinal", "bunny00"}) {
+    const auto [angle, planar] = measure(t2stest::cliMeshedCgalSurface(name), name);
+    EXPECT_LT(angle, defaults.smoothBoundaryDegrees - 3) << name;
+    EXPECT_LT(planar, defaults.flatBoundaryShare - 0.3) << name;
+  }
+  for (const char* name : {"blob-closed", "part", "spool", "hand", "triceratops", "fandisk", "homer"}) {
+    const auto [angle, planar] = measure(t2stest::cliMeshedCgalSurface(name), name);
+    EXPECT_GT(angle, defaults.smoothBoundaryDegrees + 10) << name;
+  }
+  TetrahedralizeOptions meshing;
+  meshing.exactBoundary = false;
+  for (const char* name : {"bracket.step", "block_with_void.step"}) {
+    const TetMesh mesh = tetrahedralize(readCadSurface(t2stest::sourceDir() + "/models/" + name), meshing, name);
+    const auto [angle, planar] = measure(mesh, name);
+    EXPECT_LT(angle, defaults.smoothBoundaryDegrees) << name << " (filleted: smooth)";
+    EXPECT_GT(planar, defaults.flatBoundaryShare + 0.1) << name;
+  }
+}

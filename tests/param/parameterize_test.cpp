@@ -150,10 +150,11 @@ TEST(Parameterize, EqualVolumeCubeSitesKeepTheMapValidAndTheRegionFractions) {
 }
 
 // CubeSites::Auto (the default) is one of the two sites by the boundary's
-// smoothness, the very same map as asking for it: equal-volume on the
-// sphere (its normals turn by about an edge over the radius), stretch when
-// the threshold is below the sphere's angles, and stretch when a stretch is
-// asked for.
+// shape, the very same map as asking for it: equal-volume on the sphere
+// (smooth: its normals turn by about an edge over the radius; curved: no
+// planar patch), stretch when the angle threshold is below the sphere's
+// angles or the planar threshold at 0, and stretch when a stretch is asked
+// for.
 TEST(Parameterize, AutoCubeSitesFollowTheBoundarysSmoothness) {
   const TetMesh mesh = twoRegionSphere();
   ParamOptions o;
@@ -176,10 +177,19 @@ TEST(Parameterize, AutoCubeSitesFollowTheBoundarysSmoothness) {
   EXPECT_TRUE(parameterize(mesh, st).U == creased.U);
 
   o.smoothBoundaryDegrees = ParamOptions{}.smoothBoundaryDegrees;
+  EXPECT_EQ(smooth.param.boundaryPlanarShare, 0.0);  // (no planar patch on a sphere)
+  o.flatBoundaryShare = 0;  // (no share is below it: planar)
+  EXPECT_EQ(parameterize(mesh, o).param.cubeSites, ParamOptions::CubeSites::Stretch);
+  o.flatBoundaryShare = ParamOptions{}.flatBoundaryShare;
   o.cubeSiteStretch = 0.5;
   EXPECT_EQ(parameterize(mesh, o).param.cubeSites, ParamOptions::CubeSites::Stretch);
   for (const double bad : {-1.0, 181.0, std::nan("")}) {
     o.smoothBoundaryDegrees = bad;
+    EXPECT_THROW(parameterize(mesh, o), Error) << bad;
+  }
+  o.smoothBoundaryDegrees = ParamOptions{}.smoothBoundaryDegrees;
+  for (const double bad : {-0.1, 1.1, std::nan("")}) {
+    o.flatBoundaryShare = bad;
     EXPECT_THROW(parameterize(mesh, o), Error) << bad;
   }
 }

@@ -11,6 +11,7 @@
 #include "test_data.h"
 #include "tet2spline/io/mesh_io.h"
 #include "tet2spline/param/parameterize.h"
+#include "tet2spline/param/tetrahedralize.h"
 
 using namespace tet2spline;
 
@@ -373,21 +374,26 @@ TEST(NormalAngleQuantile, EdgesOfOneTriangleOnlyAreSkippedAndBadArgumentsThrow) 
   EXPECT_THROW(normalAngleQuantile(X, two, 0.5), Error);
 }
 
-// The rule ParamOptions::CubeSites::Auto applies to the genus-0 meshes of
-// the test data: the smooth ones (no creases, no sharp tips) stay well
-// below smoothBoundaryDegrees, those with creases or tips well above it.
-TEST(NormalAngleQuantileReal, SeparatesTheSmoothMeshesFromTheCreasedOnes) {
-  const double threshold = ParamOptions{}.smoothBoundaryDegrees;
-  for (const char* name : {"blobby", "retinal", "bunny00"}) {
-    const SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
-    const double a = normalAngleQuantile(s.V, s.F, 0.99);
-    std::printf("%s: boundary normal angle p99 %.1f°\n", name, a);
-    EXPECT_LT(a, threshold - 4) << name;
-  }
-  for (const char* name : {"blob-closed", "part", "spool", "hand", "triceratops", "fandisk", "homer"}) {
-    const SurfaceMesh s = readSurface(t2stest::cgalMesh(name));
-    const double a = normalAngleQuantile(s.V, s.F, 0.99);
-    std::printf("%s: boundary normal angle p99 %.1f°\n", name, a);
-    EXPECT_GT(a, threshold + 4) << name;
-  }
+TEST(PlanarShare, CubeIsAllPlanarSphereNoneAndSplittingKeepsIt) {
+  const TetMesh cube = t2stest::cube6();
+  const Eigen::MatrixX3i F = boundaryFaces(cube);
+  EXPECT_NEAR(planarShare(cube.V, F, 0.1, 0.01), 1.0, 1e-12);
+  EXPECT_NEAR(planarShare(cube.V, F, 0.1, 0.2), 0.0, 1e-12);  // each face is a sixth
+  // A sphere: every patch is one triangle, below 1% of the area; at 30° the
+  // patches grow, and at 180° one patch holds everything.
+  const SurfaceMesh s = t2stest::sphere(4);
+  EXPECT_EQ(planarShare(s.V, s.F, 0.1, 0.01), 0.0);
+  EXPECT_NEAR(planarShare(s.V, s.F, 180.0, 0.01), 1.0, 1e-12);
+  // Splitting each cube face into many coplanar triangles keeps it planar
+  // (TetGen's boundary Steiner points), while a sphere split as finely stays curved.
+  TetrahedralizeOptions fine;
+  fine.maxVolume = 1e-3;
+  const TetMesh split = tetrahedralize(SurfaceMesh{cube.V, F}, fine);
+  const Eigen::MatrixX3i G = boundaryFaces(split);
+  ASSERT_GT(G.rows(), 100);
+  EXPECT_NEAR(planarShare(split.V, G, 0.1, 0.01), 1.0, 1e-9);
+  const SurfaceMesh finer = t2stest::sphere(6);
+  EXPECT_EQ(planarShare(finer.V, finer.F, 0.1, 0.01), 0.0);
+  EXPECT_THROW(planarShare(cube.V, F, -1, 0.01), Error);
+  EXPECT_THROW(planarShare(cube.V, F, 0.1, 1.5), Error);
 }

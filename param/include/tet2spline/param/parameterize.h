@@ -136,25 +136,39 @@ struct ParamOptions {
   /// run): transport 27 -> 19 s, fit RMS 8³ -> 16³ 0.00858 -> 0.00384 (2.23
   /// times; 1.98 at α = 0), final untangling as slow (305 s). A trade, so
   /// not the default for every input.
-  /// Auto (the default): EqualVolume when the outer boundary is smooth (the
-  /// 99th percentile of the angle between adjacent boundary triangles'
-  /// normals, topology.h normalAngleQuantile, below smoothBoundaryDegrees),
-  /// Stretch otherwise (creases, sharp tips, CAD solids), and Stretch when
-  /// cubeSiteStretch > 0 (a stretch asked for). On the smooth
-  /// inputs the sites' gain is the fit's (measured again, the default ->
-  /// EqualVolume, fit RMS 8³ -> 16³: blobby 0.00275 -> 0.00118 (2.33 times)
-  /// against 0.00211 -> 0.00097 (2.17), retinal 0.00537 -> 0.00240 (2.24)
-  /// against 0.00454 -> 0.00210 (2.16), bunny00 0.0102 -> 0.00517 (1.97)
-  /// against 0.00859 -> 0.00395 (2.17), whose total also went 311 s
-  /// (median of three draws) -> 224 s (one run)); on the CAD block the
-  /// loss is the fit's. ParamResult::Figures says which sites ran.
+  /// Auto (the default): EqualVolume when the outer boundary is smooth and
+  /// curved: the 99th percentile of the angle between adjacent boundary
+  /// triangles' normals (topology.h normalAngleQuantile) below
+  /// smoothBoundaryDegrees, no creases or sharp tips, and less than
+  /// flatBoundaryShare of its area in planar faces (topology.h
+  /// planarShare), no large planar faces.
+  /// Stretch otherwise (creases, tips, CAD solids, filleted or not), and
+  /// Stretch when cubeSiteStretch > 0 (a stretch asked for). On the smooth,
+  /// curved inputs the equal-volume sites fit better (measured again,
+  /// Stretch -> EqualVolume, fit RMS 8³ -> 16³: blobby 0.00275 -> 0.00118
+  /// (2.33 times) against 0.00211 -> 0.00097 (2.17), retinal 0.00537 ->
+  /// 0.00240 (2.24) against 0.00454 -> 0.00210 (2.16), bunny00 0.0102 ->
+  /// 0.00517 (1.97) against 0.00859 -> 0.00395 (2.17), whose total also
+  /// went 311 s (median of three draws) -> 169 s (median of three)). On the
+  /// CAD solids they fit worse: the block with a void above, and
+  /// models/bracket.step (filleted everywhere, so smooth: normal angle p99
+  /// 13°, but 0.69 planar) ended 0.10 of the diagonal from its surface
+  /// instead of 0.03. ParamResult::Figures says which sites ran.
   enum class CubeSites { Auto, Stretch, EqualVolume };
   CubeSites cubeSites = CubeSites::Auto;
   /// Cube, CubeSites::Auto: the largest 99th percentile of the normal angle
-  /// (degrees) at which the boundary counts as smooth. The libcgal-demo
-  /// meshes fall into two groups: 16–24° (bunny00, retinal, blobby) and
-  /// 43° or more (homer, blob-closed, triceratops, part, fandisk, spool).
+  /// (degrees; edges inside planar faces left out) at which the boundary
+  /// counts as smooth. The libcgal-demo meshes, meshed as the command line
+  /// meshes them, fall into two groups: 16–25° (bunny00, blobby, retinal)
+  /// and 42° or more (homer, blob-closed, fandisk, triceratops, part,
+  /// spool, hand); tests/param/parameterize_realdata_slow_test.cpp.
   double smoothBoundaryDegrees = 30.0;
+  /// Cube, CubeSites::Auto: the share of the boundary's area in planar
+  /// faces (topology.h planarShare: within 0.1° of coplanar, patches of at
+  /// least 1% of the area) from which it counts as not curved. Measured:
+  /// bunny00, blobby, retinal 0; bracket.step 0.69, block_with_void.step
+  /// 0.64 (both filleted, normal angle p99 13–14°); part 0.68, fandisk 0.43.
+  double flatBoundaryShare = 0.5;
   /// One OT site per region where regions meet (parameterize.cpp buildSites):
   /// Off, On, or Auto (default): on when the density jumps somewhere (a
   /// vertex whose tets have different densities), so volume-preserving runs
@@ -315,10 +329,11 @@ struct ParamResult {
     double misplacedVolume = 0;
     int cornerVertices = 0, edgeVertices = 0;  ///< cube: boundary vertices put on corners / edges
     /// Cube with transport: the sites the transport started from (never Auto)
-    /// and the outer boundary's 99th-percentile normal angle (degrees) that
-    /// chose them under CubeSites::Auto.
+    /// and the outer boundary's 99th-percentile normal angle (degrees) and
+    /// planar share that chose them under CubeSites::Auto.
     ParamOptions::CubeSites cubeSites = ParamOptions::CubeSites::Stretch;
     double boundaryNormalAngleP99 = 0;
+    double boundaryPlanarShare = 0;    ///< planarShare of the outer boundary (see flatBoundaryShare)
     int flippedBoundaryTriangles = 0;  ///< exact, boundary triangles flipped on ∂Ω (seen from its centre)
     int finishingRounds = 0;           ///< ε rounds after the final untangling's budget was spent or its regions stalled (and after edge splits), each leaving fewer
     int splitEdges = 0;                ///< edges split for tets the final untangling's rounds left inverted (new vertices)

@@ -126,12 +126,27 @@ int countFlippedTriangles(const Eigen::MatrixX3d& U, const Eigen::MatrixX3i& F, 
 
 /// Quantile p (in [0, 1]) of the angle, in degrees, between the normals of
 /// the two triangles of F (#F × 3, indexing X) on each edge that exactly two
-/// of them share; 0 when no edge is shared. A finely meshed smooth surface
-/// has small angles everywhere; creases and sharp tips show in the upper
-/// tail (the libcgal-demo meshes at p = 0.99: bunny00 16°, retinal 22°,
-/// blobby 24°; homer 43°, blob-closed 57°, part and fandisk above 90°).
-/// Throws Error(Usage) for p outside [0, 1], Error(Input) for an index out
-/// of range.
-double normalAngleQuantile(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, double p);
+/// of them share, over the edges whose angle is at least ignoreBelow; 0
+/// when there is none. A finely meshed smooth surface has small angles
+/// everywhere; creases and sharp tips show in the upper tail. ignoreBelow
+/// (e.g. 0.1°) leaves out the edges inside planar faces, which splitting
+/// a surface's triangles adds (TetGen's quality meshing does on the
+/// boundary) and which would otherwise push the tail down. The
+/// libcgal-demo meshes as the command line meshes them, at p = 0.99 and
+/// 0.1°: see ParamOptions::smoothBoundaryDegrees. Throws Error(Usage) for
+/// p outside [0, 1] or ignoreBelow < 0, Error(Input) for an index out of
+/// range.
+double normalAngleQuantile(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, double p, double ignoreBelow = 0);
+
+/// Share of the area of the triangles F (#F × 3, indexing X) that lies in
+/// planar patches of at least minPatch of the whole area: patches of
+/// triangles joined across shared edges whose normals are within `degrees`
+/// of the patch's first triangle's. A CAD solid's tessellation is mostly
+/// large planar faces; a scanned or sculpted shape has none, and splitting
+/// its triangles (as TetGen's quality meshing does on the boundary) makes
+/// patches no larger than an input triangle. Throws Error(Usage) for
+/// degrees < 0 or minPatch outside [0, 1], Error(Input) for an index out of
+/// range.
+double planarShare(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, double degrees, double minPatch);
 
 }  // namespace tet2spline
