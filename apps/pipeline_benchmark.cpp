@@ -109,7 +109,8 @@ PipelineRun runConvert(const std::string& cli, const std::string& model, const s
   run.report = readReport(out / "report.json");
   // The fit again at 8 elements per direction on the same map, for the
   // error's fall from 8³ to 16³ (issue 5); not timed with the pipeline.
-  const bool defaultElements = std::find(extraArgs.begin(), extraArgs.end(), "--elements") == extraArgs.end();
+  const bool defaultElements = std::none_of(extraArgs.begin(), extraArgs.end(),
+                                            [](const std::string& a) { return a.rfind("--elements", 0) == 0; });
   if (run.exitStatus == 0 && defaultElements && fs::exists(out / "param.vtu") && run.report.contains("fit")) {
     const fs::path coarse = scratch / "fit8";
     if (runChild({cli, "fit", (out / "param.vtu").string(), "-o", coarse.string(), "-q", "--elements", "8"},

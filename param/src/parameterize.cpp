@@ -368,10 +368,10 @@ Eigen::MatrixX3d composeVertices(const Eigen::MatrixX3d& y, const std::vector<in
   return U;
 }
 
-/// Planar faces for ParamOptions::flatBoundaryShare: patches of triangles
+/// Planar faces for ParamOptions::planarBoundaryShare: patches of triangles
 /// within this many degrees of coplanar, of at least this share of the
 /// boundary's area.
-constexpr double kFlatDegrees = 0.1;
+constexpr double kPlanarDegrees = 0.1;
 constexpr double kPlanarPatch = 0.01;
 
 /// Rings of boundary vertices around a flipped triangle that slide in the
@@ -633,8 +633,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     throw Error(ErrorKind::Usage, "cubeSiteStretch must be in [0, 1]");
   if (!(options.smoothBoundaryDegrees >= 0 && options.smoothBoundaryDegrees <= 180))
     throw Error(ErrorKind::Usage, "smoothBoundaryDegrees must be in [0, 180]");
-  if (!(options.flatBoundaryShare >= 0 && options.flatBoundaryShare <= 1))
-    throw Error(ErrorKind::Usage, "flatBoundaryShare must be in [0, 1]");
+  if (!(options.planarBoundaryShare >= 0 && options.planarBoundaryShare <= 1))
+    throw Error(ErrorKind::Usage, "planarBoundaryShare must be in [0, 1]");
   ParamResult r;
   auto report = [&](double fraction, const std::string& what) {
     if (options.progress && !options.progress(fraction, what)) throw Status::failure("stopped during " + what);
@@ -727,12 +727,12 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       t0 = Clock::now();
       Eigen::MatrixX3d y = r.ballU;
       if (options.domain == ParamDomain::Cube) {
-        r.param.boundaryNormalAngleP99 = normalAngleQuantile(mesh.V, r.boundaryFaces, 0.99, kFlatDegrees);
-        r.param.boundaryPlanarShare = planarShare(mesh.V, r.boundaryFaces, kFlatDegrees, kPlanarPatch);
+        r.param.boundaryNormalAngleP99 = normalAngleQuantile(mesh.V, r.boundaryFaces, 0.99, kPlanarDegrees);
+        r.param.boundaryPlanarShare = planarShare(mesh.V, r.boundaryFaces, kPlanarDegrees, kPlanarPatch);
         r.param.cubeSites = options.cubeSites != ParamOptions::CubeSites::Auto ? options.cubeSites
                             : options.cubeSiteStretch > 0 ||
                                       !(r.param.boundaryNormalAngleP99 < options.smoothBoundaryDegrees) ||
-                                      !(r.param.boundaryPlanarShare < options.flatBoundaryShare)
+                                      !(r.param.boundaryPlanarShare < options.planarBoundaryShare)
                                 ? ParamOptions::CubeSites::Stretch
                                 : ParamOptions::CubeSites::EqualVolume;
         for (Eigen::Index v = 0; v < nv; ++v)

@@ -190,7 +190,7 @@ INSTANTIATE_TEST_SUITE_P(Genus0, ParamMorphFallback,
 // retinal, blobby) stay well inside it; the others have creases or sharp
 // tips (normal angle p99 above smoothBoundaryDegrees, edges inside planar
 // faces left out) or, the CAD solids, mostly planar faces (planarShare at
-// 0.1°, patches of 1% or more, above flatBoundaryShare), fillets or not.
+// 0.1°, patches of 1% or more, above planarBoundaryShare), fillets or not.
 // Measured: blobby 23.5°, retinal 24.7°, bunny00 16.4°, all three with no
 // planar patch; blob-closed 57.5°, homer 42.7°, triceratops 91.1°, fandisk
 // 90.2°, part 101.2°, spool 106.9°, hand 107.4°; bracket.step 12.7° and
@@ -206,7 +206,7 @@ TEST(CubeSitesRule, SmoothCurvedMeshesAreTheOnlyOnesTakingTheEqualVolumeSites) {
   for (const char* name : {"blobby", "retinal", "bunny00"}) {
     const auto [angle, planar] = measure(t2stest::cliMeshedCgalSurface(name), name);
     EXPECT_LT(angle, defaults.smoothBoundaryDegrees - 3) << name;
-    EXPECT_LT(planar, defaults.flatBoundaryShare - 0.3) << name;
+    EXPECT_LT(planar, defaults.planarBoundaryShare - 0.3) << name;
   }
   for (const char* name : {"blob-closed", "part", "spool", "hand", "triceratops", "fandisk", "homer"}) {
     const auto [angle, planar] = measure(t2stest::cliMeshedCgalSurface(name), name);
@@ -218,6 +218,6 @@ TEST(CubeSitesRule, SmoothCurvedMeshesAreTheOnlyOnesTakingTheEqualVolumeSites) {
     const TetMesh mesh = tetrahedralize(readCadSurface(t2stest::sourceDir() + "/models/" + name), meshing, name);
     const auto [angle, planar] = measure(mesh, name);
     EXPECT_LT(angle, defaults.smoothBoundaryDegrees) << name << " (filleted: smooth)";
-    EXPECT_GT(planar, defaults.flatBoundaryShare + 0.1) << name;
+    EXPECT_GT(planar, defaults.planarBoundaryShare + 0.1) << name;
   }
 }

@@ -178,9 +178,9 @@ TEST(Parameterize, AutoCubeSitesFollowTheBoundarysSmoothness) {
 
   o.smoothBoundaryDegrees = ParamOptions{}.smoothBoundaryDegrees;
   EXPECT_EQ(smooth.param.boundaryPlanarShare, 0.0);  // (no planar patch on a sphere)
-  o.flatBoundaryShare = 0;  // (no share is below it: planar)
+  o.planarBoundaryShare = 0;  // (no share is below it: planar)
   EXPECT_EQ(parameterize(mesh, o).param.cubeSites, ParamOptions::CubeSites::Stretch);
-  o.flatBoundaryShare = ParamOptions{}.flatBoundaryShare;
+  o.planarBoundaryShare = ParamOptions{}.planarBoundaryShare;
   o.cubeSiteStretch = 0.5;
   EXPECT_EQ(parameterize(mesh, o).param.cubeSites, ParamOptions::CubeSites::Stretch);
   for (const double bad : {-1.0, 181.0, std::nan("")}) {
@@ -189,7 +189,7 @@ TEST(Parameterize, AutoCubeSitesFollowTheBoundarysSmoothness) {
   }
   o.smoothBoundaryDegrees = ParamOptions{}.smoothBoundaryDegrees;
   for (const double bad : {-0.1, 1.1, std::nan("")}) {
-    o.flatBoundaryShare = bad;
+    o.planarBoundaryShare = bad;
     EXPECT_THROW(parameterize(mesh, o), Error) << bad;
   }
 }

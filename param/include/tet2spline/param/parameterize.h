@@ -140,7 +140,7 @@ struct ParamOptions {
   /// curved: the 99th percentile of the angle between adjacent boundary
   /// triangles' normals (topology.h normalAngleQuantile) below
   /// smoothBoundaryDegrees, no creases or sharp tips, and less than
-  /// flatBoundaryShare of its area in planar faces (topology.h
+  /// planarBoundaryShare of its area in planar faces (topology.h
   /// planarShare), no large planar faces.
   /// Stretch otherwise (creases, tips, CAD solids, filleted or not), and
   /// Stretch when cubeSiteStretch > 0 (a stretch asked for). On the smooth,
@@ -168,7 +168,7 @@ struct ParamOptions {
   /// least 1% of the area) from which it counts as not curved. Measured:
   /// bunny00, blobby, retinal 0; bracket.step 0.69, block_with_void.step
   /// 0.64 (both filleted, normal angle p99 13–14°); part 0.68, fandisk 0.43.
-  double flatBoundaryShare = 0.5;
+  double planarBoundaryShare = 0.5;
   /// One OT site per region where regions meet (parameterize.cpp buildSites):
   /// Off, On, or Auto (default): on when the density jumps somewhere (a
   /// vertex whose tets have different densities), so volume-preserving runs
@@ -333,7 +333,7 @@ struct ParamResult {
     /// planar share that chose them under CubeSites::Auto.
     ParamOptions::CubeSites cubeSites = ParamOptions::CubeSites::Stretch;
     double boundaryNormalAngleP99 = 0;
-    double boundaryPlanarShare = 0;    ///< planarShare of the outer boundary (see flatBoundaryShare)
+    double boundaryPlanarShare = 0;    ///< planarShare of the outer boundary (see planarBoundaryShare)
     int flippedBoundaryTriangles = 0;  ///< exact, boundary triangles flipped on ∂Ω (seen from its centre)
     int finishingRounds = 0;           ///< ε rounds after the final untangling's budget was spent or its regions stalled (and after edge splits), each leaving fewer
     int splitEdges = 0;                ///< edges split for tets the final untangling's rounds left inverted (new vertices)
