@@ -189,9 +189,11 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   ParamResult r = parameterize(mesh, po);
   addParamReport(report, r);
   setPath(report, "param.untangler", options.untangler);
-  if (po.domain == ParamDomain::Cube && r.ot.ran) {
+  const bool cubeTransport = po.domain == ParamDomain::Cube && r.ot.ran;
+  const bool equalVolume = r.param.cubeSites == ParamOptions::CubeSites::EqualVolume;
+  if (cubeTransport) {
     std::ostringstream sites;
-    if (r.param.cubeSites == ParamOptions::CubeSites::EqualVolume)
+    if (equalVolume)
       sites << "equal-volume";
     else
       sites << "stretch " << po.cubeSiteStretch;
@@ -205,8 +207,8 @@ ParamResult runParamStage(const TetMesh& mesh, const std::string& inputName, con
   line << (r.ot.ran ? options.domain : std::string("ball (harmonic)")) << ", " << r.mesh.numVertices() << " vertices";
   if (r.chordsSplit) line << " (" << r.chordsSplit << " chords split)";
   line << "; ball map " << r.ball.invertedTets << " inverted";
-  if (r.ot.ran && po.domain == ParamDomain::Cube)
-    line << "; sites " << (r.param.cubeSites == ParamOptions::CubeSites::EqualVolume ? "equal-volume" : "stretch")
+  if (cubeTransport)
+    line << "; sites " << (equalVolume ? "equal-volume" : "stretch")
          << " (boundary normal angle p99 " << r.param.boundaryNormalAngleP99 << "°, planar share "
          << r.param.boundaryPlanarShare << ")";
   if (r.ot.ran) line << "; OT " << r.ot.iterations << " Newton iterations, mass error " << r.ot.maxRelativeMassError;

@@ -583,39 +583,42 @@ struct SharedEdge {
   int f0, f1;      // those triangles
 };
 
-// Every edge that exactly two triangles of F share.
-std::vector<SharedEdge> sharedEdges(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, const char* function) {
+struct SurfaceEdges {
+  std::vector<Eigen::Vector3d> areaNormal;  // per triangle: (b − a) × (c − a), twice its area along its normal
+  std::vector<SharedEdge> shared;           // every edge that exactly two triangles share
+};
+
+SurfaceEdges sharedEdges(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, const char* function) {
   if (F.size() > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= X.rows()))
     throw Error(ErrorKind::Input, std::string(function) + ": a triangle index outside the " + std::to_string(X.rows()) + " points");
-  std::vector<Eigen::Vector3d> normal(static_cast<size_t>(F.rows()));
-  struct HalfEdge {
-    int a, b, face;
+  SurfaceEdges out;
+  out.areaNormal.resize(static_cast<size_t>(F.rows()));
+  struct EdgeUse {
+    std::uint64_t key;
+    int face;
   };
-  std::vector<HalfEdge> halves;
-  halves.reserve(static_cast<size_t>(F.rows()) * 3);
+  std::vector<EdgeUse> uses;
+  uses.reserve(static_cast<size_t>(F.rows()) * 3);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const Eigen::Vector3d a = X.row(F(f, 0)), b = X.row(F(f, 1)), c = X.row(F(f, 2));
-    normal[static_cast<size_t>(f)] = (b - a).cross(c - a).normalized();
-    for (int k = 0; k < 3; ++k) {
-      const int u = F(f, k), v = F(f, (k + 1) % 3);
-      halves.push_back({std::min(u, v), std::max(u, v), static_cast<int>(f)});
-    }
+    out.areaNormal[static_cast<size_t>(f)] = (b - a).cross(c - a);
+    for (int k = 0; k < 3; ++k) uses.push_back({edgeKey(F(f, k), F(f, (k + 1) % 3)), static_cast<int>(f)});
   }
-  std::sort(halves.begin(), halves.end(),
-            [](const HalfEdge& x, const HalfEdge& y) { return x.a != y.a ? x.a < y.a : x.b != y.b ? x.b < y.b : x.face < y.face; });
-  std::vector<SharedEdge> edges;
-  for (size_t i = 0; i < halves.size();) {
+  tbb::parallel_sort(uses.begin(), uses.end(), [](const EdgeUse& x, const EdgeUse& y) {
+    return x.key != y.key ? x.key < y.key : x.face < y.face;
+  });
+  for (size_t i = 0; i < uses.size();) {
     size_t j = i;
-    while (j < halves.size() && halves[j].a == halves[i].a && halves[j].b == halves[i].b) ++j;
+    while (j < uses.size() && uses[j].key == uses[i].key) ++j;
     if (j - i == 2) {
-      const double c = normal[static_cast<size_t>(halves[i].face)].dot(normal[static_cast<size_t>(halves[i + 1].face)]);
+      const int f0 = uses[i].face, f1 = uses[i + 1].face;
+      const double c = out.areaNormal[static_cast<size_t>(f0)].normalized().dot(out.areaNormal[static_cast<size_t>(f1)].normalized());
       // (a degenerate triangle's NaN normal counts as a crease)
-      edges.push_back({std::isfinite(c) ? std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / M_PI : 180.0,
-                       halves[i].face, halves[i + 1].face});
+      out.shared.push_back({std::isfinite(c) ? std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / M_PI : 180.0, f0, f1});
     }
     i = j;
   }
-  return edges;
+  return out;
 }
 
 }  // namespace
@@ -624,7 +627,7 @@ double normalAngleQuantile(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F,
   if (!(p >= 0 && p <= 1)) throw Error(ErrorKind::Usage, "normalAngleQuantile: quantile " + std::to_string(p) + " outside [0, 1]");
   if (!(ignoreBelow >= 0)) throw Error(ErrorKind::Usage, "normalAngleQuantile: angle " + std::to_string(ignoreBelow) + " below 0");
   std::vector<double> angles;
-  for (const SharedEdge& e : sharedEdges(X, F, "normalAngleQuantile"))
+  for (const SharedEdge& e : sharedEdges(X, F, "normalAngleQuantile").shared)
     if (e.degrees >= ignoreBelow) angles.push_back(e.degrees);
   if (angles.empty()) return 0;
   const size_t k = static_cast<size_t>(std::llround(p * static_cast<double>(angles.size() - 1)));
@@ -636,22 +639,20 @@ double planarShare(const Eigen::MatrixX3d& X, const Eigen::MatrixX3i& F, double 
   if (!(degrees >= 0)) throw Error(ErrorKind::Usage, "planarShare: angle " + std::to_string(degrees) + " below 0");
   if (!(minPatch >= 0 && minPatch <= 1))
     throw Error(ErrorKind::Usage, "planarShare: patch share " + std::to_string(minPatch) + " outside [0, 1]");
-  const std::vector<SharedEdge> edges = sharedEdges(X, F, "planarShare");
+  const SurfaceEdges edges = sharedEdges(X, F, "planarShare");
   const Eigen::Index nf = F.rows();
   std::vector<std::vector<int>> next(static_cast<size_t>(nf));
-  for (const SharedEdge& e : edges) {
+  for (const SharedEdge& e : edges.shared) {
     next[static_cast<size_t>(e.f0)].push_back(e.f1);
     next[static_cast<size_t>(e.f1)].push_back(e.f0);
   }
   std::vector<Eigen::Vector3d> normal(static_cast<size_t>(nf));
   std::vector<double> area(static_cast<size_t>(nf));
   double total = 0;
-  for (Eigen::Index f = 0; f < nf; ++f) {
-    const Eigen::Vector3d a = X.row(F(f, 0)), b = X.row(F(f, 1)), c = X.row(F(f, 2));
-    const Eigen::Vector3d n = (b - a).cross(c - a);
-    area[static_cast<size_t>(f)] = 0.5 * n.norm();
-    normal[static_cast<size_t>(f)] = n.normalized();
-    total += area[static_cast<size_t>(f)];
+  for (size_t f = 0; f < static_cast<size_t>(nf); ++f) {
+    area[f] = 0.5 * edges.areaNormal[f].norm();
+    normal[f] = edges.areaNormal[f].normalized();
+    total += area[f];
   }
   if (!(total > 0)) return 0;
   // Patches grown from each unvisited triangle over shared edges to the
