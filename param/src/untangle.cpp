@@ -68,38 +68,58 @@ void growRings(std::vector<char>& mark, const Eigen::MatrixX4i& T, const detail:
 // kept as they were so that their results stay bitwise the same).
 Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, Eigen::VectorXd z,
                               bool products = false, double gap = 1e-7) {
+  // Every buffer is allocated once: the local repair solves hundreds of
+  // thousands of these small problems, and a temporary per expression made
+  // a fifth of its time malloc and free (bunny00 scaled by 1 + 2·10⁻⁹:
+  // 197k moves in 29 s). Each expression is evaluated as Eigen evaluates
+  // the temporaries it replaces (a product into a zeroed vector, then the
+  // element-wise rest), so the results are the same bits.
   const Eigen::Index n = z.size(), m = a.rows();
-  auto slack = [&](const Eigen::VectorXd& y) -> Eigen::VectorXd { return a * y + b; };
+  Eigen::VectorXd product(m), r(m), trial(n), g(n), dz(n), column(n);
+  Eigen::MatrixXd H(n, n), scaled;
+  Eigen::VectorXd ones;
+  if (products) scaled.resize(m, n), ones = Eigen::VectorXd::Ones(m);
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(n);
+  auto slackInto = [&](const Eigen::VectorXd& y, Eigen::VectorXd& out) {
+    product.noalias() = a * y;
+    out = product + b;
+  };
   auto phi = [&](const Eigen::VectorXd& y, double tau, bool& ok) {
-    const Eigen::VectorXd r = slack(y);
+    slackInto(y, r);
     ok = (r.array() > 0).all();
     return ok ? -tau * y(n - 1) - r.array().log().sum() : std::numeric_limits<double>::infinity();
   };
   // (τ up to 1e9 at the default gap, as before; smaller gaps go further)
   for (double tau = 1; tau < (gap < 1e-7 ? 1e3 / gap : 1e9) && static_cast<double>(m) / tau > gap; tau *= 8) {
     for (int it = 0; it < 40; ++it) {
-      const Eigen::VectorXd r = slack(z);
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+      slackInto(z, r);
+      g.setZero();
       g(n - 1) = -tau;
-      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
+      H.setZero();
       if (products) {
-        const Eigen::MatrixXd scaled = r.cwiseInverse().asDiagonal() * a;
-        g -= scaled.transpose() * Eigen::VectorXd::Ones(m);
+        scaled.noalias() = r.cwiseInverse().asDiagonal() * a;
+        column.noalias() = scaled.transpose() * ones;
+        g -= column;
         H.noalias() = scaled.transpose() * scaled;
       } else {
         for (Eigen::Index j = 0; j < m; ++j) {
-          g -= a.row(j).transpose() / r(j);
-          H += a.row(j).transpose() * a.row(j) / (r(j) * r(j));
+          const double rj = r(j), rr = rj * rj;
+          for (Eigen::Index p = 0; p < n; ++p) g(p) -= a(j, p) / rj;
+          for (Eigen::Index q = 0; q < n; ++q)
+            for (Eigen::Index p = 0; p < n; ++p) H(p, q) += (a(j, p) * a(j, q)) / rr;
         }
       }
-      const Eigen::VectorXd dz = -H.ldlt().solve(g);
+      ldlt.compute(H);
+      dz = ldlt.solve(g);
+      dz = -dz;
       const double decrement = -g.dot(dz);
       if (!dz.allFinite() || !(decrement > 1e-12)) break;
       bool ok = false;
       const double f0 = phi(z, tau, ok);
       double step = 1;
       for (; step > 1e-12; step *= 0.5) {
-        const double f = phi(z + step * dz, tau, ok);
+        trial = z + step * dz;
+        const double f = phi(trial, tau, ok);
         if (ok && f <= f0 - 0.25 * step * decrement) break;
       }
       if (!(step > 1e-12)) break;
@@ -233,14 +253,25 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
   int bestCount = std::numeric_limits<int>::max();
   for (int sweep = 0; sweep < maxSweeps; ++sweep) {
     std::vector<char> mark(static_cast<size_t>(W.rows()), 0);
-    int count = 0;
+    // The tets left inverted, on both cores (the exact test of every tet
+    // each sweep), in index order.
+    const std::vector<Eigen::Index> bad = tbb::parallel_reduce(
+        tbb::blocked_range<Eigen::Index>(0, ntx, 8192), std::vector<Eigen::Index>(),
+        [&](const tbb::blocked_range<Eigen::Index>& r, std::vector<Eigen::Index> found) {
+          for (Eigen::Index t = r.begin(); t != r.end(); ++t)
+            if (!positive(t)) found.push_back(t);
+          return found;
+        },
+        [](std::vector<Eigen::Index> x, const std::vector<Eigen::Index>& y) {
+          x.insert(x.end(), y.begin(), y.end());
+          return x;
+        });
+    const int count = static_cast<int>(bad.size());
     double globalWorst = std::numeric_limits<double>::infinity();
-    for (Eigen::Index t = 0; t < ntx; ++t)
-      if (!positive(t)) {
-        ++count;
-        globalWorst = std::min(globalWorst, volume(t) / scale(t));
-        for (int k = 0; k < 4; ++k) mark[static_cast<size_t>(T(t, k))] = 1;
-      }
+    for (Eigen::Index t : bad) {
+      globalWorst = std::min(globalWorst, volume(t) / scale(t));
+      for (int k = 0; k < 4; ++k) mark[static_cast<size_t>(T(t, k))] = 1;
+    }
     if (count == 0) break;
     // Progress: fewer inversions or a better worst one; else widen the set.
     if (count < bestCount || globalWorst > bestWorst + 1e-3 * std::abs(bestWorst)) {
