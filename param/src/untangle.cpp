@@ -105,8 +105,8 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
         for (Eigen::Index j = 0; j < m; ++j) {
           const double rj = r(j), rr = rj * rj;
           for (Eigen::Index p = 0; p < n; ++p) g(p) -= a(j, p) / rj;
-          for (Eigen::Index q = 0; q < n; ++q)
-            for (Eigen::Index p = 0; p < n; ++p) H(p, q) += (a(j, p) * a(j, q)) / rr;
+          for (Eigen::Index q = 0; q < n; ++q)  // (the lower triangle: all that LDLT reads)
+            for (Eigen::Index p = q; p < n; ++p) H(p, q) += (a(j, p) * a(j, q)) / rr;
         }
       }
       ldlt.compute(H);
@@ -251,27 +251,31 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
   int moved = 0, rings = 0, stalled = 0;
   double bestWorst = -std::numeric_limits<double>::infinity();
   int bestCount = std::numeric_limits<int>::max();
+  // Which tets are inverted (not positive, exactly): every tet tested once,
+  // on both cores, and after that only the stars of the vertices a sweep
+  // moved (bunny00 scaled by 1 + 2·10⁻⁹: a tenth of the repair's 21 s went
+  // to testing every tet every sweep).
+  std::vector<char> inverted(static_cast<size_t>(ntx), 0);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, ntx, 8192), [&](const tbb::blocked_range<Eigen::Index>& r) {
+    for (Eigen::Index t = r.begin(); t != r.end(); ++t) inverted[static_cast<size_t>(t)] = !positive(t);
+  });
+  std::vector<int> movedVerts;
   for (int sweep = 0; sweep < maxSweeps; ++sweep) {
+    for (int v : movedVerts)
+      for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e) {
+        const int t = vt.corner[static_cast<size_t>(e)] / 4;
+        inverted[static_cast<size_t>(t)] = !positive(t);
+      }
+    movedVerts.clear();
     std::vector<char> mark(static_cast<size_t>(W.rows()), 0);
-    // The tets left inverted, on both cores (the exact test of every tet
-    // each sweep), in index order.
-    const std::vector<Eigen::Index> bad = tbb::parallel_reduce(
-        tbb::blocked_range<Eigen::Index>(0, ntx, 8192), std::vector<Eigen::Index>(),
-        [&](const tbb::blocked_range<Eigen::Index>& r, std::vector<Eigen::Index> found) {
-          for (Eigen::Index t = r.begin(); t != r.end(); ++t)
-            if (!positive(t)) found.push_back(t);
-          return found;
-        },
-        [](std::vector<Eigen::Index> x, const std::vector<Eigen::Index>& y) {
-          x.insert(x.end(), y.begin(), y.end());
-          return x;
-        });
-    const int count = static_cast<int>(bad.size());
+    int count = 0;
     double globalWorst = std::numeric_limits<double>::infinity();
-    for (Eigen::Index t : bad) {
-      globalWorst = std::min(globalWorst, volume(t) / scale(t));
-      for (int k = 0; k < 4; ++k) mark[static_cast<size_t>(T(t, k))] = 1;
-    }
+    for (Eigen::Index t = 0; t < ntx; ++t)
+      if (inverted[static_cast<size_t>(t)]) {
+        ++count;
+        globalWorst = std::min(globalWorst, volume(t) / scale(t));
+        for (int k = 0; k < 4; ++k) mark[static_cast<size_t>(T(t, k))] = 1;
+      }
     if (count == 0) break;
     // Progress: fewer inversions or a better worst one; else widen the set.
     if (count < bestCount || globalWorst > bestWorst + 1e-3 * std::abs(bestWorst)) {
@@ -339,6 +343,7 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
       }
       if (better) {
         ++movedNow;
+        movedVerts.push_back(v);
       } else {
         W.row(v) = p0.transpose();
       }
