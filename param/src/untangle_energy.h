@@ -46,7 +46,8 @@ inline Eigen::Matrix3d tetJacobian(const Positions& W, const std::array<int, 4>&
 /// by calls. Bit for bit std::cbrt on glibc 2.36 (measured: 5·10⁷ values
 /// from 10⁻⁶⁰ to 10⁶⁰, both signs, no difference), in about half its time
 /// (5.4 against 10 ns); zeros, subnormals, infinities and NaN go to
-/// std::cbrt. The untangler spent 12-19% of its time in std::cbrt and the
+/// std::cbrt. (A library whose cbrt is correctly rounded may differ from it
+/// by an ulp; the maps then follow this one, the same on every platform.) The untangler spent 12-19% of its time in std::cbrt and the
 /// frexp and scalbn it calls (perf, bunny00).
 inline double cubeRoot(double x) {
   static constexpr double kFactor[5] = {1.0 / 1.5874010519681994748, 1.0 / 1.2599210498948731648, 1.0,
