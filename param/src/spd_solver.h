@@ -83,8 +83,29 @@ inline VertexTets vertexTets(Eigen::Index numVertices, const Eigen::MatrixX4i& T
 /// bitwise the same maps.
 class CornerTerms {
  public:
-  explicit CornerTerms(const VertexTets& vt) : vt_(vt), slot_(vt.corner.size()), term_(vt.corner.size()) {
+  explicit CornerTerms(const VertexTets& vt)
+      : vt_(vt), start_(vt.offset), slot_(vt.corner.size()), term_(vt.corner.size()) {
     for (size_t e = 0; e < vt.corner.size(); ++e) slot_[static_cast<size_t>(vt.corner[e])] = static_cast<int>(e);
+  }
+  /// The same sums, with the vertices' blocks of terms stored in the order
+  /// of storageRank (a permutation of the vertices: vertex v's block is the
+  /// storageRank[v]-th), each block still in vt's order. A spatial rank puts
+  /// the four corners of a tet near each other in memory; the terms and the
+  /// order in which addTo adds them are the same as with the first
+  /// constructor, so the results are bitwise the same.
+  CornerTerms(const VertexTets& vt, const std::vector<int>& storageRank)
+      : vt_(vt), start_(vt.offset.size() - 1), slot_(vt.corner.size()), term_(vt.corner.size()) {
+    const size_t nv = start_.size();
+    std::vector<int> byRank(nv);
+    for (size_t v = 0; v < nv; ++v) byRank[static_cast<size_t>(storageRank[v])] = static_cast<int>(v);
+    int next = 0;
+    for (int v : byRank) {
+      start_[static_cast<size_t>(v)] = next;
+      next += vt.offset[static_cast<size_t>(v) + 1] - vt.offset[static_cast<size_t>(v)];
+    }
+    for (size_t v = 0; v < nv; ++v)
+      for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e)
+        slot_[static_cast<size_t>(vt.corner[static_cast<size_t>(e)])] = start_[v] + (e - vt.offset[v]);
   }
   /// The terms of tet t's corners: column k of (w·A)·G, written in scalars
   /// straight into their slots. The profile of the untangling showed Eigen's
@@ -117,12 +138,14 @@ class CornerTerms {
   }
   /// Adds vertex v's terms to s, in vt's order (every tet of v must be set).
   void addTo(int v, Eigen::Vector3d& s) const {
-    for (int e = vt_.offset[static_cast<size_t>(v)]; e < vt_.offset[static_cast<size_t>(v) + 1]; ++e)
-      s += term_[static_cast<size_t>(e)];
+    const int first = start_[static_cast<size_t>(v)];
+    const int count = vt_.offset[static_cast<size_t>(v) + 1] - vt_.offset[static_cast<size_t>(v)];
+    for (int e = first; e < first + count; ++e) s += term_[static_cast<size_t>(e)];
   }
 
  private:
   const VertexTets& vt_;
+  std::vector<int> start_;  // start_[v]: where vertex v's block of terms begins
   std::vector<int> slot_;  // slot_[4t + k] = e with vt.corner[e] = 4t + k
   std::vector<Eigen::Vector3d> term_;
 };

@@ -21,22 +21,30 @@ using Matrix9d = Eigen::Matrix<double, 9, 9>;
 /// J of tet t of T at positions W (rows), reference barycentric gradients G
 /// (one per column): Σ_k (W_k − W_0) G_kᵀ, from edge vectors, not positions
 /// (no cancellation where a tet is 10⁻⁸ wide at |u| = 1).
-template <class Positions>  // #V × 3, either storage order
-inline Eigen::Matrix3d tetJacobian(const Positions& W, const Eigen::MatrixX4i& T, Eigen::Index t,
-                                   const Eigen::Matrix<double, 3, 4>& G) {
-  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-  for (int k = 1; k < 4; ++k) J += (W.row(T(t, k)) - W.row(T(t, 0))).transpose() * G.col(k).transpose();
-  return J;
-}
-
-/// The same for the tet with vertices v (the same operations, so the same
-/// bits).
+///
+/// In scalars: J_ij = ((0 + e1_i G_j1) + e2_i G_j2) + e3_i G_j3 with
+/// e_k = W_k − W_0, the operations of Eigen's J = 0; J += e_k G_kᵀ (k = 1, 2,
+/// 3), hence its bits. Eigen's outer products stored packets that the next
+/// ones reloaded across, and the energy's packet loads of J straddled these
+/// scalar stores: both stalled on store forwarding (perf, bunny00's ball
+/// map untangling: a fifth of the loop's samples on two such loads).
 template <class Positions>
 inline Eigen::Matrix3d tetJacobian(const Positions& W, const std::array<int, 4>& v,
                                    const Eigen::Matrix<double, 3, 4>& G) {
-  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-  for (int k = 1; k < 4; ++k) J += (W.row(v[k]) - W.row(v[0])).transpose() * G.col(k).transpose();
+  double e[3][3];  // e[k − 1][i]
+  for (int k = 1; k < 4; ++k)
+    for (int i = 0; i < 3; ++i) e[k - 1][i] = W(v[k], i) - W(v[0], i);
+  Eigen::Matrix3d J;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) J(i, j) = ((0.0 + e[0][i] * G(j, 1)) + e[1][i] * G(j, 2)) + e[2][i] * G(j, 3);
   return J;
+}
+
+/// The same for tet t of T.
+template <class Positions>  // #V × 3, either storage order
+inline Eigen::Matrix3d tetJacobian(const Positions& W, const Eigen::MatrixX4i& T, Eigen::Index t,
+                                   const Eigen::Matrix<double, 3, 4>& G) {
+  return tetJacobian(W, std::array<int, 4>{T(t, 0), T(t, 1), T(t, 2), T(t, 3)}, G);
 }
 
 /// The cube root of x, for the energy's χ^(1/3): glibc's algorithm
@@ -130,15 +138,38 @@ inline double untangleEnergy(const Eigen::Matrix3d& J, double eps, double theta,
   // used: its outcome depends chaotically on the last bits (measured: a
   // reordering moved the two-material demo's spline boundary distance from
   // 0.037 to 0.057 of the diagonal).
-  const double D = J.determinant(), S = J.squaredNorm();
+  // In scalars, in the operations of Eigen's expressions (left as comments):
+  // its packet loads of J and K, stored a scalar at a time, stalled on store
+  // forwarding (perf, bunny00's ball map untangling: 17% of the energy's
+  // samples on one such load).
+  const double* j = J.data();  // column-major: J(r, c) = j[r + 3c]
+  const double D = J.determinant();
+  // J.squaredNorm(): two-lane packets of entries (0, 1) .. (6, 7) summed as
+  // a tree, the lanes added, then entry 8.
+  const double S = (((j[0] * j[0] + j[2] * j[2]) + (j[4] * j[4] + j[6] * j[6])) +
+                    ((j[1] * j[1] + j[3] * j[3]) + (j[5] * j[5] + j[7] * j[7]))) +
+                   j[8] * j[8];
   const double c = untangleChi(eps, D), c2 = cubeRoot(c) * cubeRoot(c);
   const double c3 = 0.5 + 0.5 * D / std::sqrt(eps * eps + D * D);  // χ'
   const double f = S / c2, h = (1 + D * D) / c;
   const double e = (1 - theta) * f + theta * h;
   if (!dJ && !H) return e;
-  const Eigen::Matrix3d K = cofactor(J);
-  if (dJ) *dJ = (1 - theta) * (J * (2 / c2) - K * (2 * f * c3 / (3 * c))) + theta * K * ((2 * D - h * c3) / c);
+  if (dJ) {
+    // *dJ = (1 − θ)(J (2/c2) − K (2 f c3/(3c))) + θ K ((2D − h c3)/c), K = cofactor(J)
+    const double a = 2 / c2, b = 2 * f * c3 / (3 * c), k = (2 * D - h * c3) / c, w = 1 - theta;
+    double* out = dJ->data();
+    for (int r = 0; r < 3; ++r) {
+      const int r1 = (r + 1) % 3, r2 = (r + 2) % 3;  // row r of K: row r1 × row r2 of J
+      const double K0 = j[r1 + 3] * j[r2 + 6] - j[r1 + 6] * j[r2 + 3];
+      const double K1 = j[r1 + 6] * j[r2] - j[r1] * j[r2 + 6];
+      const double K2 = j[r1] * j[r2 + 3] - j[r1 + 3] * j[r2];
+      out[r] = w * (j[r] * a - K0 * b) + theta * K0 * k;
+      out[r + 3] = w * (j[r + 3] * a - K1 * b) + theta * K1 * k;
+      out[r + 6] = w * (j[r + 6] * a - K2 * b) + theta * K2 * k;
+    }
+  }
   if (!H) return e;
+  const Eigen::Matrix3d K = cofactor(J);
   const InvariantDerivatives p = untangleInvariantDerivatives(S, D, eps, theta, true);
   {
     Eigen::Matrix<double, 9, 1> k, j;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -431,6 +432,58 @@ TEST(UntangleEnergy, CubeRootMatchesTheLibrary) {
   }
   EXPECT_TRUE(std::isnan(detail::cubeRoot(std::numeric_limits<double>::quiet_NaN())));
   EXPECT_NEAR(detail::cubeRoot(27.0), 3.0, 1e-15);
+}
+
+// The Jacobian from the reference barycentric gradients maps every reference
+// edge from vertex 0 onto the mapped one (on a real tet mesh, the positions
+// a random affine map plus noise), and the energy's gradient, in scalars,
+// is the closed form (1 − θ)(2J/χ^(2/3) − (2/3) f χ'/χ K) + θ K (2D − h χ')/χ
+// written with matrices, over both signs of det J and barriers from 1e-9.
+TEST(UntangleEnergy, JacobianMapsTheEdgesAndTheGradientIsTheClosedForm) {
+  const TetMesh m = t2stest::ballGrid(4);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Eigen::Matrix3d A;
+  for (int i = 0; i < 9; ++i) A.data()[i] = u(rng);
+  int negative = 0, positive = 0;
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> W(2 * m.V.rows(), 3);  // two maps, the second reflected
+  for (Eigen::Index v = 0; v < m.V.rows(); ++v) {
+    W.row(v) = (A * m.V.row(v).transpose()).transpose() + 0.05 * Eigen::RowVector3d(u(rng), u(rng), u(rng));
+    W.row(m.V.rows() + v) = -W.row(v);
+  }
+  for (Eigen::Index t = 0; t < 2 * m.T.rows(); ++t) {
+    const Eigen::Index shift = t < m.T.rows() ? 0 : m.V.rows();
+    std::array<int, 4> v;
+    for (int k = 0; k < 4; ++k) v[k] = static_cast<int>(m.T(t % m.T.rows(), k) + shift);
+    Eigen::Matrix3d E;  // reference edges from vertex 0, as columns
+    for (int k = 1; k < 4; ++k) E.col(k - 1) = (m.V.row(v[k] - shift) - m.V.row(v[0] - shift)).transpose();
+    const Eigen::Matrix3d Einv = E.inverse();
+    Eigen::Matrix<double, 3, 4> G;
+    for (int k = 1; k < 4; ++k) G.col(k) = Einv.row(k - 1).transpose();
+    G.col(0) = -(G.col(1) + G.col(2) + G.col(3));
+    const Eigen::Matrix3d J = detail::tetJacobian(W, v, G);
+    for (int k = 1; k < 4; ++k) {
+      const Eigen::Vector3d mapped = (W.row(v[k]) - W.row(v[0])).transpose();
+      ASSERT_LT((J * E.col(k - 1) - mapped).norm(), 1e-12 * (1 + mapped.norm())) << "tet " << t;
+    }
+    const double D = J.determinant();
+    negative += D < 0, positive += D > 0;
+    for (double eps : {1e-9, 1e-3, 0.5})
+      for (double theta : {0.0, 0.5}) {
+        Eigen::Matrix3d dJ;
+        const double e = detail::untangleEnergy(J, eps, theta, &dJ);
+        const double chi = detail::untangleChi(eps, D), chi1 = 0.5 + 0.5 * D / std::sqrt(eps * eps + D * D);
+        const double f = J.squaredNorm() / std::pow(chi, 2.0 / 3), h = (1 + D * D) / chi;
+        EXPECT_NEAR(e, (1 - theta) * f + theta * h, 1e-12 * std::abs(e));
+        const Eigen::Matrix3d K = D * J.inverse().transpose();  // the cofactor matrix
+        const Eigen::Matrix3d closed = (1 - theta) * (2 * J / std::pow(chi, 2.0 / 3) - 2.0 / 3 * f * chi1 / chi * K) +
+                                       theta * K * (2 * D - h * chi1) / chi;
+        EXPECT_LT((dJ - closed).cwiseAbs().maxCoeff(), 1e-9 * (1 + closed.cwiseAbs().maxCoeff()))
+            << "tet " << t << " eps " << eps << " theta " << theta;
+      }
+  }
+  EXPECT_GT(negative, 0);
+  EXPECT_GT(positive, 0);
 }
 
 TEST(UntangleEnergy, GradientAndHessianMatchFiniteDifferences) {
