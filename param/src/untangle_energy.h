@@ -132,10 +132,10 @@ inline InvariantDerivatives untangleInvariantDerivatives(double S, double D, dou
 
 /// e(J) for weight θ and barrier ε; *dJ (if given) gets ∂e/∂J, *H (if given)
 /// ∂²e/∂J² (9 × 9, row-major vec of J). Always inlined: the untangler's loop
-/// then drops the Hessian's code, shares det J with its own, and overlaps
-/// one tet's energy with the next tet's Jacobian (measured, bunny00, two
-/// runs each, same bits: the final untangling's held phase 24.7, 22.2 ->
-/// 19.9, 21.0 s, the ball map's untangling 10.7, 12.6 -> 10.6, 9.5 s).
+/// then drops the Hessian's code, can share det J with its own, and runs
+/// as one body without a call (measured, bunny00, two runs each, same
+/// bits: the final untangling's held phase 24.7, 22.2 -> 19.9, 21.0 s, the
+/// ball map's untangling 10.7, 12.6 -> 10.6, 9.5 s).
 [[gnu::always_inline]] inline double untangleEnergy(const Eigen::Matrix3d& J, double eps, double theta, Eigen::Matrix3d* dJ = nullptr,
                              Matrix9d* H = nullptr) {
   // Value and gradient in the operation order the L-BFGS untangler has always
