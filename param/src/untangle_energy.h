@@ -135,9 +135,9 @@ inline InvariantDerivatives untangleInvariantDerivatives(double S, double D, dou
 /// then drops the Hessian's code, can share det J with its own, and runs
 /// as one body without a call (measured, bunny00, two runs each, same
 /// bits: the final untangling's held phase 24.7, 22.2 -> 19.9, 21.0 s, the
-/// ball map's untangling 10.7, 12.6 -> 10.6, 9.5 s).
-[[gnu::always_inline]] inline double untangleEnergy(const Eigen::Matrix3d& J, double eps, double theta, Eigen::Matrix3d* dJ = nullptr,
-                             Matrix9d* H = nullptr) {
+/// ball map's untangling 10.7, 12.6 -> 10.6, 9.5 s). dJ must not be &J.
+[[gnu::always_inline]] inline double untangleEnergy(const Eigen::Matrix3d& J, double eps, double theta,
+                                                    Eigen::Matrix3d* dJ = nullptr, Matrix9d* H = nullptr) {
   // Value and gradient in the operation order the L-BFGS untangler has always
   // used: its outcome depends chaotically on the last bits (measured: a
   // reordering moved the two-material demo's spline boundary distance from
