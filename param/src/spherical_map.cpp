@@ -446,21 +446,25 @@ AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, cons
   std::vector<int> lSlot;  // per triplet of the first step, its slot in L's values
   // One reweighted Tutte step from the plane z with weights `soft`: the new
   // map on the sphere (not checked for flips here), or empty if the solve failed.
+  // The Laplacian's contributions, (row, column, value), in the triplets' order.
+  auto forEachEntry = [&](const Eigen::VectorXd& soft, const auto& add) {
+    for (Eigen::Index f = 0; f < nf; ++f) {
+      if (f == p) continue;
+      for (int k = 0; k < 3; ++k) {
+        const int i = F(f, (k + 1) % 3), j = F(f, (k + 2) % 3);
+        const double w = soft[f] * base(f, k);
+        add(i, j, -w);
+        add(j, i, -w);
+        add(i, i, w);
+        add(j, j, w);
+      }
+    }
+  };
   auto step = [&](const Eigen::MatrixXd& z, const Eigen::VectorXd& soft) -> Eigen::MatrixX3d {
     if (lSlot.empty()) {
       Triplets trip;
       trip.reserve(static_cast<size_t>(nf) * 12);
-      for (Eigen::Index f = 0; f < nf; ++f) {
-        if (f == p) continue;
-        for (int k = 0; k < 3; ++k) {
-          const int i = F(f, (k + 1) % 3), j = F(f, (k + 2) % 3);
-          const double w = soft[f] * base(f, k);
-          trip.emplace_back(i, j, -w);
-          trip.emplace_back(j, i, -w);
-          trip.emplace_back(i, i, w);
-          trip.emplace_back(j, j, w);
-        }
-      }
+      forEachEntry(soft, [&](int i, int j, double w) { trip.emplace_back(i, j, w); });
       L.setFromTriplets(trip.begin(), trip.end());
       lSlot.resize(trip.size());
       for (size_t t = 0; t < trip.size(); ++t) lSlot[t] = valueSlot(L, trip[t].row(), trip[t].col());
@@ -468,16 +472,7 @@ AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, cons
       double* value = L.valuePtr();
       std::fill(value, value + L.nonZeros(), 0.0);  // (0 + x is x: every weight is positive)
       size_t t = 0;
-      for (Eigen::Index f = 0; f < nf; ++f) {
-        if (f == p) continue;
-        for (int k = 0; k < 3; ++k) {
-          const double w = soft[f] * base(f, k);
-          value[lSlot[t++]] += -w;
-          value[lSlot[t++]] += -w;
-          value[lSlot[t++]] += w;
-          value[lSlot[t++]] += w;
-        }
-      }
+      forEachEntry(soft, [&](int, int, double w) { value[lSlot[t++]] += w; });
     }
     Eigen::MatrixXd corners(3, 2);
     for (int k = 0; k < 3; ++k) corners.row(k) = z.row(fixed[static_cast<size_t>(k)]);

@@ -55,8 +55,9 @@ inline Eigen::Matrix3d tetJacobian(const Positions& W, const Eigen::MatrixX4i& T
 /// from 10⁻⁶⁰ to 10⁶⁰, both signs, no difference), in about half its time
 /// (5.4 against 10 ns); zeros, subnormals, infinities and NaN go to
 /// std::cbrt. (A library whose cbrt is correctly rounded may differ from it
-/// by an ulp; the maps then follow this one, the same on every platform.) The untangler spent 12-19% of its time in std::cbrt and the
-/// frexp and scalbn it calls (perf, bunny00).
+/// by an ulp; the maps then follow this one, the same on every platform.)
+/// The untangler spent 12-19% of its time in std::cbrt and the frexp and
+/// scalbn it calls (perf, bunny00).
 inline double cubeRoot(double x) {
   static constexpr double kFactor[5] = {1.0 / 1.5874010519681994748, 1.0 / 1.2599210498948731648, 1.0,
                                         1.2599210498948731648, 1.5874010519681994748};  // 2^(k/3), k = −2 .. 2
@@ -93,12 +94,17 @@ inline double untangleChi(double eps, double d) {
   return d > 0 ? 0.5 * (d + r) : 0.5 * eps * eps / (r - d);
 }
 
-/// Cofactor matrix K = ∂det J/∂J (row i: J_{i+1} × J_{i+2}).
+/// Cofactor matrix K = ∂det J/∂J (row i: J_{i+1} × J_{i+2}), in scalars with
+/// the operations of Eigen's cross products (a_1 b_2 − a_2 b_1, ...), so the
+/// same bits, and no packet loads of stored scalars (see untangleEnergy).
 inline Eigen::Matrix3d cofactor(const Eigen::Matrix3d& J) {
   Eigen::Matrix3d K;
-  K.row(0) = J.row(1).cross(J.row(2));
-  K.row(1) = J.row(2).cross(J.row(0));
-  K.row(2) = J.row(0).cross(J.row(1));
+  for (int r = 0; r < 3; ++r) {
+    const int r1 = (r + 1) % 3, r2 = (r + 2) % 3;
+    K(r, 0) = J(r1, 1) * J(r2, 2) - J(r1, 2) * J(r2, 1);
+    K(r, 1) = J(r1, 2) * J(r2, 0) - J(r1, 0) * J(r2, 2);
+    K(r, 2) = J(r1, 0) * J(r2, 1) - J(r1, 1) * J(r2, 0);
+  }
   return K;
 }
 
@@ -142,7 +148,7 @@ inline InvariantDerivatives untangleInvariantDerivatives(double S, double D, dou
   // used: its outcome depends chaotically on the last bits (measured: a
   // reordering moved the two-material demo's spline boundary distance from
   // 0.037 to 0.057 of the diagonal).
-  // In scalars, in the operations of Eigen's expressions (left as comments):
+  // In scalars, in the operations of the Eigen expressions they replace:
   // its packet loads of J and K, stored a scalar at a time, stalled on store
   // forwarding (perf, bunny00's ball map untangling: 17% of the energy's
   // samples on one such load).
@@ -158,22 +164,15 @@ inline InvariantDerivatives untangleInvariantDerivatives(double S, double D, dou
   const double f = S / c2, h = (1 + D * D) / c;
   const double e = (1 - theta) * f + theta * h;
   if (!dJ && !H) return e;
+  const Eigen::Matrix3d K = cofactor(J);
   if (dJ) {
-    // *dJ = (1 − θ)(J (2/c2) − K (2 f c3/(3c))) + θ K ((2D − h c3)/c), K = cofactor(J)
+    // *dJ = (1 − θ)(J (2/c2) − K (2 f c3/(3c))) + θ K ((2D − h c3)/c), entry by entry
     const double a = 2 / c2, b = 2 * f * c3 / (3 * c), k = (2 * D - h * c3) / c, w = 1 - theta;
+    const double* kk = K.data();
     double* out = dJ->data();
-    for (int r = 0; r < 3; ++r) {
-      const int r1 = (r + 1) % 3, r2 = (r + 2) % 3;  // row r of K: row r1 × row r2 of J
-      const double K0 = j[r1 + 3] * j[r2 + 6] - j[r1 + 6] * j[r2 + 3];
-      const double K1 = j[r1 + 6] * j[r2] - j[r1] * j[r2 + 6];
-      const double K2 = j[r1] * j[r2 + 3] - j[r1 + 3] * j[r2];
-      out[r] = w * (j[r] * a - K0 * b) + theta * K0 * k;
-      out[r + 3] = w * (j[r + 3] * a - K1 * b) + theta * K1 * k;
-      out[r + 6] = w * (j[r + 6] * a - K2 * b) + theta * K2 * k;
-    }
+    for (int i = 0; i < 9; ++i) out[i] = w * (j[i] * a - kk[i] * b) + theta * kk[i] * k;
   }
   if (!H) return e;
-  const Eigen::Matrix3d K = cofactor(J);
   const InvariantDerivatives p = untangleInvariantDerivatives(S, D, eps, theta, true);
   {
     Eigen::Matrix<double, 9, 1> k, j;
