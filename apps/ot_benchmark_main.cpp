@@ -96,6 +96,14 @@
 //   0.94 s, 181k 2.1 / 1.9 s (totals 11.2 / 12.2 s): on even cells Jacobi's
 //   60–160 iterations cost less than the cycle's set-up, and the default
 //   keeps Jacobi there.
+// Measured 2026-12-06 (Newton on the log-volumes while the max relative
+// error is above 0.1, then KMT's; OptimalTransportOptions::logNewtonAbove;
+// the machine ran about a quarter slower than on 12-04 all day), one run
+// each, --log-newton 0 (KMT only) against the default:
+//   bunny00's cube problem (--points, from its TetGen mesh): 16 iterations,
+//   26 diagrams, 21.9 s against 9 iterations, 11 diagrams, 11.1 s.
+//   Uniform points: 10k 0.50 / 0.48 s (8 / 6 iterations), 100k 6.7 / 6.4 s
+//   (10 / 7), 181k 11.5 / 10.8 s (10 / 7); ball, 100k: 4.6 / 4.8 s (6 / 5).
 #include <sys/resource.h>
 
 #include <chrono>
@@ -117,9 +125,10 @@ namespace {
 void usage() {
   std::fprintf(stderr,
                "usage: tet2spline_ot_bench [--n N[,N...]] [--solver auto|amg|cg|ic|cholmod] [--cg-tol T] [--start scaled|zero]\n"
-               "                           [--domain cube|ball] [--seed S] [--points FILE]\n"
+               "                           [--log-newton E] [--domain cube|ball] [--seed S] [--points FILE]\n"
                "  default --n 10000,100000,181000; --points reads a point set in the format of\n"
-               "  'tet2spline transport' (first line N, then x y z mass per line) instead\n");
+               "  'tet2spline transport' (first line N, then x y z mass per line) instead; --log-newton E: Newton on\n"
+               "  the log-volumes while the max relative mass error is above E (default 0.1; 0: KMT's Newton only)\n");
 }
 double peakRssMiB() {
   rusage u{};
@@ -165,6 +174,9 @@ int main(int argc, char** argv) {
       ++a;
     } else if (arg == "--start" && value) {
       options.start = std::string(value) == "zero" ? OtStart::Zero : OtStart::ScaledVoronoi;
+      ++a;
+    } else if (arg == "--log-newton" && value) {
+      options.logNewtonAbove = std::atof(value);
       ++a;
     } else if (arg == "--domain" && value) {
       ball = std::string(value) == "ball";

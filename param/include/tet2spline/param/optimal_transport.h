@@ -105,6 +105,17 @@ struct OptimalTransportOptions {
   int maxNewtonIterations = 100;
   int maxStepHalvings = 40;            ///< line search gives up below step 2^-maxStepHalvings
   OtStart start = OtStart::ScaledVoronoi;
+  /// Newton on the log-volumes first, while the max relative mass error is
+  /// above this (0: never): the direction solves H d = V∘(log ν − log V − c)
+  /// (c makes it sum to zero) instead of H d = ν − V, and a step passes when
+  /// every cell stays above KMT's ε0 and ‖log V − log ν‖ drops by (1 − t/2).
+  /// Then KMT's damped Newton from there; also when no step down to
+  /// 2^-logNewtonHalvings passes. Measured on bunny00's cube problem (cells
+  /// 2e-5 to 157 times their mass at the start): 9 iterations and 11.1 s
+  /// against KMT's 16 and 21.9 s (optimal_transport.cpp has the figures).
+  double logNewtonAbove = 0.1;
+  double logNewtonCgTolerance = 1e-6;  ///< CG's relative residual in the log phase (at most cgTolerance)
+  int logNewtonHalvings = 8;
   OtLinearSolver linearSolver = OtLinearSolver::JacobiThenAmgCG;
   /// Relative residual of the inexact Newton direction. Fixed, not adaptive:
   /// a forcing term 0.1·error stalled the damped phase of the benchmark
