@@ -233,14 +233,15 @@ int main(int argc, char** argv) {
       std::printf("  %s\n", r.status.message.c_str());
       status = 1;
     }
-    std::printf("  %4s %9s %5s %8s %8s %8s %6s %8s %8s %8s %8s %10s   (cg: * = AMG-preconditioned)\n", "it", "step",
-                "evals", "repaired", "rejected", "flips", "cg", "triang", "clip", "assemble", "solve", "rel.err");
+    std::printf("  %4s %10s %5s %8s %8s %8s %6s %8s %8s %8s %8s %10s   (step: L = log-volume Newton; cg: * = AMG)\n",
+                "it", "step", "evals", "repaired", "rejected", "flips", "cg", "triang", "clip", "assemble", "solve",
+                "rel.err");
     double sums[4] = {0, 0, 0, 0};
     for (std::size_t k = 0; k < r.iterationStats.size(); ++k) {
       const OtIterationStats& s = r.iterationStats[k];
-      std::printf("  %4zu %9.3g %5d %8d %8d %8ld %5d%c %8.3f %8.3f %8.3f %8.3f %10.3g\n", k + 1, s.stepSize,
-                  s.evaluations, s.repairedDiagrams, s.rejectedDiagrams, s.flips, s.linearIterations,
-                  s.amg ? '*' : ' ', s.triangulationSeconds, s.clippingSeconds, s.assemblySeconds,
+      std::printf("  %4zu %9.3g%c %5d %8d %8d %8ld %5d%c %8.3f %8.3f %8.3f %8.3f %10.3g\n",
+                  k + 1, s.stepSize, s.logVolumes ? 'L' : ' ', s.evaluations, s.repairedDiagrams, s.rejectedDiagrams,
+                  s.flips, s.linearIterations, s.amg ? '*' : ' ', s.triangulationSeconds, s.clippingSeconds, s.assemblySeconds,
                   s.linearSolveSeconds, s.maxRelativeMassError);
       sums[0] += s.triangulationSeconds;
       sums[1] += s.clippingSeconds;

@@ -378,6 +378,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     stats.assemblySeconds = secondsSince(t0);
     t0 = Clock::now();
     const bool logStep = logPhase;
+    stats.logVolumes = logStep;
     if (logStep) {  // V∘(log ν − log V − c), summing to zero (above)
       for (int i = 0; i < n; ++i) rhs[i] = pd.volumes[i] * std::log(nu[i] / pd.volumes[i]);
       rhs -= (rhs.sum() / pd.volumes.sum()) * pd.volumes;
@@ -429,7 +430,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
       }
       case OtLinearSolver::IncompleteCholeskyCG: {
         Eigen::ConjugateGradient<SpMat, Eigen::Lower | Eigen::Upper, Eigen::IncompleteCholesky<double>> cg;
-        cg.setTolerance(options.cgTolerance);
+        cg.setTolerance(logStep ? logCgTolerance : options.cgTolerance);
         cg.setMaxIterations(options.cgMaxIterations);
         cg.compute(L);
         d = cg.solve(rhs);

@@ -187,8 +187,8 @@ TEST(OptimalTransport, NewtonOnTheLogVolumesTakesLongerStepsFromAPoorStart) {
   // The poor start above (cells off by orders of magnitude both ways): the
   // log phase reaches the same cells (the solution is unique up to a
   // constant ψ) with fewer damped steps and fewer diagrams than KMT's
-  // Newton from the start, and hands over to it (steps below 1 in the log
-  // phase, full steps at the end).
+  // Newton from the start, and hands over to KMT's Newton, which takes the
+  // last, full steps.
   const int n = 1500;
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> u(-1, 1);
@@ -219,6 +219,9 @@ TEST(OptimalTransport, NewtonOnTheLogVolumesTakesLongerStepsFromAPoorStart) {
   EXPECT_LT(diagrams(withLog), diagrams(kmt));
   EXPECT_LT(damped(withLog), damped(kmt));
   EXPECT_EQ(withLog.stepSizes.back(), 1.0);
+  EXPECT_TRUE(withLog.iterationStats.front().logVolumes);  // the log phase first, KMT's Newton last
+  EXPECT_FALSE(withLog.iterationStats.back().logVolumes);
+  for (const OtIterationStats& s : kmt.iterationStats) EXPECT_FALSE(s.logVolumes);
   EXPECT_LT((withLog.centroids - kmt.centroids).cwiseAbs().maxCoeff(), 1e-7);
   const double shift = withLog.weights[0] - kmt.weights[0];
   EXPECT_LT((withLog.weights.array() - shift - kmt.weights.array()).abs().maxCoeff(), 1e-7);

@@ -141,6 +141,7 @@ struct OtIterationStats {
   long flips = 0;                      ///< flips, also of repairs given up
   int linearIterations = 0;            ///< CG iterations (0 for Cholesky)
   bool amg = false;                    ///< CG preconditioned by the AMG cycle (all or some of them)
+  bool logVolumes = false;             ///< Newton on the log-volumes (logNewtonAbove), not KMT's
   double triangulationSeconds = 0;     ///< regular triangulations of this iteration
   double clippingSeconds = 0;          ///< clipping of this iteration
   double assemblySeconds = 0;          ///< Hessian assembly
@@ -159,7 +160,10 @@ struct OptimalTransportResult {
   std::vector<OtIterationStats> iterationStats;
   double startSeconds = 0;             ///< validation, merging and the diagram of ψ0
   int mergedPoints = 0;                ///< points merged into a coincident one
-  int solverSwitches = 0;              ///< CG tolerance tightenings, switches to the AMG, to CHOLMOD, to the relative merit and to ψ in two doubles (see the .cpp)
+  /// CG tolerance tightenings, switches to the AMG, from the log phase to
+  /// KMT's Newton when its search fails, to CHOLMOD, to the relative merit
+  /// and to ψ in two doubles (see the .cpp)
+  int solverSwitches = 0;
   Status status;                       ///< ok, or why it stopped
 };
 
