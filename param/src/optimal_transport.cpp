@@ -203,6 +203,9 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
   }
   if (!(options.maxRelativeMassError > 0) || options.maxNewtonIterations < 0 || !(options.cgTolerance > 0))
     throw Error(ErrorKind::Usage, "solveOptimalTransport: tolerances must be positive and the iteration budget non-negative");
+  if (options.logNewtonAbove > 0 && (!(options.logNewtonCgTolerance > 0) || options.logNewtonHalvings < 0))
+    throw Error(ErrorKind::Usage, "solveOptimalTransport: the log phase needs a positive CG tolerance and "
+                                  "non-negative step halvings (logNewtonCgTolerance, logNewtonHalvings)");
   for (int i = 0; i < nIn; ++i) {
     if (!points.row(i).allFinite())
       throw Error(ErrorKind::Input, "solveOptimalTransport: " + describePoint(points, i) + " is not finite");

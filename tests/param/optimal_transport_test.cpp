@@ -358,4 +358,21 @@ TEST(OptimalTransport, BadInputThrowsNamingTheCause) {
   expectError(p, Eigen::VectorXd::Ones(10), ErrorKind::Input, "point 6");
   p(6, 2) = INFINITY;
   expectError(p, Eigen::VectorXd::Ones(10), ErrorKind::Input, "point 6");
+  // The log phase's options.
+  for (const double tolerance : {0.0, -1e-6, std::nan("")}) {
+    OptimalTransportOptions options;
+    options.logNewtonCgTolerance = tolerance;
+    EXPECT_THROW(solveOptimalTransport(y, Eigen::VectorXd::Ones(10), Domain::unitCube(), options), Error) << tolerance;
+    options.logNewtonAbove = 0;  // (off: not used)
+    EXPECT_TRUE(solveOptimalTransport(y, Eigen::VectorXd::Ones(10), Domain::unitCube(), options).status.ok);
+  }
+  OptimalTransportOptions options;
+  options.logNewtonHalvings = -1;
+  try {
+    solveOptimalTransport(y, Eigen::VectorXd::Ones(10), Domain::unitCube(), options);
+    ADD_FAILURE() << "no throw for logNewtonHalvings -1";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Usage);
+    EXPECT_NE(std::string(e.what()).find("logNewtonHalvings"), std::string::npos) << e.what();
+  }
 }

@@ -114,8 +114,8 @@ struct OptimalTransportOptions {
   /// 2e-5 to 157 times their mass at the start): 9 iterations and 11.1 s
   /// against KMT's 16 and 21.9 s (optimal_transport.cpp has the figures).
   double logNewtonAbove = 0.1;
-  double logNewtonCgTolerance = 1e-6;  ///< CG's relative residual in the log phase (at most cgTolerance)
-  int logNewtonHalvings = 8;
+  double logNewtonCgTolerance = 1e-6;  ///< CG's relative residual in the log phase (at most cgTolerance); > 0
+  int logNewtonHalvings = 8;           ///< >= 0 (else Error(Usage), as a non-positive logNewtonCgTolerance)
   OtLinearSolver linearSolver = OtLinearSolver::JacobiThenAmgCG;
   /// Relative residual of the inexact Newton direction. Fixed, not adaptive:
   /// a forcing term 0.1·error stalled the damped phase of the benchmark
@@ -168,7 +168,8 @@ struct OptimalTransportResult {
 };
 
 /// Solves the semi-discrete OT from Ω to points (#N × 3) with masses (#N).
-/// Pre-conditions (else Error): sizes agree and N ≥ 1 (Usage); points finite,
+/// Pre-conditions (else Error): sizes agree and N ≥ 1, tolerances positive,
+/// iteration budget and halvings non-negative (Usage); points finite,
 /// masses finite and > 0 (Input); every Laguerre cell of the start non-empty
 /// (Input: with the default start only coincident points, if not merged, can
 /// violate it). Not converging within the iteration budget, a failed line
