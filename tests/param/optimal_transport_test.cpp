@@ -142,14 +142,15 @@ TEST(OptimalTransport, InvariantUnderPermutationAndWeightShift) {
   EXPECT_LT((pa.volumes - pb.volumes).cwiseAbs().maxCoeff(), 1e-12);
 }
 
-TEST(OptimalTransport, ConvergesGloballyFromAPoorStart) {
-  // Points clustered in a small ball near a corner, masses ∝ x⁴ + small: far
-  // from the Voronoi volumes of either start.
+namespace {
+// Points clustered in a small ball near a corner, masses ∝ x⁴ + small: far
+// from the Voronoi volumes of either start.
+void poorStart(Eigen::MatrixX3d& y, Eigen::VectorXd& nu) {
   const int n = 1500;
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> u(-1, 1);
-  Eigen::MatrixX3d y(n, 3);
-  Eigen::VectorXd nu(n);
+  y.resize(n, 3);
+  nu.resize(n);
   for (int i = 0; i < n; ++i) {
     Eigen::Vector3d p;
     do p = Eigen::Vector3d(u(rng), u(rng), u(rng));
@@ -157,6 +158,13 @@ TEST(OptimalTransport, ConvergesGloballyFromAPoorStart) {
     y.row(i) = (Eigen::Vector3d(0.2, 0.25, 0.3) + 0.08 * p).transpose();
     nu[i] = std::pow(y(i, 0), 4) + 1e-3;
   }
+}
+}  // namespace
+
+TEST(OptimalTransport, ConvergesGloballyFromAPoorStart) {
+  Eigen::MatrixX3d y;
+  Eigen::VectorXd nu;
+  poorStart(y, nu);
   for (OtStart start : {OtStart::Zero, OtStart::ScaledVoronoi}) {
     OptimalTransportOptions options;
     options.start = start;
@@ -189,18 +197,9 @@ TEST(OptimalTransport, NewtonOnTheLogVolumesTakesLongerStepsFromAPoorStart) {
   // constant ψ) with fewer damped steps and fewer diagrams than KMT's
   // Newton from the start, and hands over to KMT's Newton, which takes the
   // last, full steps.
-  const int n = 1500;
-  std::mt19937 rng(17);
-  std::uniform_real_distribution<double> u(-1, 1);
-  Eigen::MatrixX3d y(n, 3);
-  Eigen::VectorXd nu(n);
-  for (int i = 0; i < n; ++i) {
-    Eigen::Vector3d p;
-    do p = Eigen::Vector3d(u(rng), u(rng), u(rng));
-    while (p.squaredNorm() > 1);
-    y.row(i) = (Eigen::Vector3d(0.2, 0.25, 0.3) + 0.08 * p).transpose();
-    nu[i] = std::pow(y(i, 0), 4) + 1e-3;
-  }
+  Eigen::MatrixX3d y;
+  Eigen::VectorXd nu;
+  poorStart(y, nu);
   OptimalTransportOptions options;
   options.maxRelativeMassError = 1e-9;
   const auto withLog = solveOptimalTransport(y, nu, Domain::unitCube(), options);
