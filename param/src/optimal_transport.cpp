@@ -382,6 +382,8 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     t0 = Clock::now();
     const bool logStep = logPhase;
     stats.logVolumes = logStep;
+    // CG's relative residual (the incomplete Cholesky's starts from options.cgTolerance instead)
+    const double iterativeTolerance = logStep ? logCgTolerance : cgTolerance;
     if (logStep) {  // V∘(log ν − log V − c), summing to zero (above)
       for (int i = 0; i < n; ++i) rhs[i] = pd.volumes[i] * std::log(nu[i] / pd.volumes[i]);
       rhs -= (rhs.sum() / pd.volumes.sum()) * pd.volumes;
@@ -411,7 +413,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
           const Eigen::VectorXd invDiag = inverseDiagonal(L);
           bool converged = false;
           stats.linearIterations = preconditionedCg(
-              L, rhs, d, logStep ? logCgTolerance : cgTolerance,
+              L, rhs, d, iterativeTolerance,
               adaptive ? std::min(options.jacobiIterationsAtMost, options.cgMaxIterations) : options.cgMaxIterations,
               [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
                 tbb::parallel_for(tbb::blocked_range<int>(0, n, 8192), [&](const tbb::blocked_range<int>& rg) {
@@ -424,7 +426,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
         if (amg) {  // (from Jacobi's iterate, if it ran)
           const detail::AggregationAmg cycle(L);
           stats.linearIterations +=
-              preconditionedCg(L, rhs, d, logStep ? logCgTolerance : cgTolerance,
+              preconditionedCg(L, rhs, d, iterativeTolerance,
                                std::max(1, options.cgMaxIterations - stats.linearIterations),
                                [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { cycle.apply(r, z); });
           stats.amg = true;
@@ -462,7 +464,10 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     // and at most logNewtonHalvings: when no step passes, KMT's Newton
     // takes over from the current point (its global convergence holds from
     // any point whose cells are all above ε0).
-    const double gNorm = logStep ? logMerit(pd.volumes) : merit(g);
+    auto stepMerit = [&](const Eigen::VectorXd& volumes, const Eigen::VectorXd& grad) {
+      return logStep ? logMerit(volumes) : merit(grad);
+    };
+    const double gNorm = stepMerit(pd.volumes, g);
     // The steps 2^-e are searched by exponent: e0 (twice the last step),
     // e0 + 1 and e0 + 2 in turn as before (the usual cases: the benchmark's
     // worst iteration needs e0 + 2); then gaps doubling (e0 + 4, + 8, + 16,
@@ -498,7 +503,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
       stats.clippingSeconds += trial.clippingSeconds;
       if (trial.rejected || trial.volumes.minCoeff() < eps0) return false;
       Eigen::VectorXd gTrial = nu - trial.volumes;
-      if ((logStep ? logMerit(trial.volumes) : merit(gTrial)) > (1 - 0.5 * t) * gNorm) return false;
+      if (stepMerit(trial.volumes, gTrial) > (1 - 0.5 * t) * gNorm) return false;
       psi.swap(psiTrial);
       psiTail.swap(psiTrialTail);
       pd = std::move(trial);
