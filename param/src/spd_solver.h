@@ -136,6 +136,8 @@ class CornerTerms {
       out[2] = wa[2][0] * G(0, k) + (wa[2][1] * G(1, k) + wa[2][2] * G(2, k));
     }
   }
+  /// The terms' storage: 3 doubles per slot (for untangle_kernel.h's loop).
+  double* termData() { return term_.empty() ? nullptr : term_.front().data(); }
   /// Asks the cache for the start of vertex v's terms (a loop over the
   /// vertices in another order than the storage's reads each block cold).
   void prefetch(int v) const { __builtin_prefetch(term_[static_cast<size_t>(start_[static_cast<size_t>(v)])].data()); }

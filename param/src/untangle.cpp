@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <memory>
 #include <numeric>
@@ -25,8 +26,25 @@
 #include "spd_solver.h"
 #include "tet2spline/param/topology.h"
 #include "untangle_energy.h"
+#include "untangle_kernel.h"
 
 namespace tet2spline {
+
+namespace detail {
+
+double cubeRootOutOfLine(double x) { return cubeRoot(x); }
+
+UntangleKernel simdUntangleKernel() {
+#if defined(T2S_HAVE_AVX2_KERNEL)
+  const char* setting = std::getenv("TET2SPLINE_SIMD");
+  if (setting && std::string(setting) == "0") return nullptr;
+  return __builtin_cpu_supports("avx2") ? &untangleKernelAvx2 : nullptr;
+#else
+  return nullptr;
+#endif
+}
+
+}  // namespace detail
 
 namespace {
 
@@ -843,6 +861,10 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     // after each placement, the rest once here.
     // Its rows are in storageRank's order.
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rowMajorW(nvx, 3);
+    // The loop over the active tets four at a time in AVX2 registers, where
+    // the processor has them: the same operations lane by lane, so bitwise
+    // the same maps (untangle_kernel.h).
+    const detail::UntangleKernel simdKernel = detail::simdUntangleKernel();
     for (Eigen::Index v = 0; v < nvx; ++v) rowMajorW.row(storageRank[static_cast<size_t>(v)]) = W.row(v);
     auto evaluate = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) -> double {
       result.tetEvaluations += static_cast<double>(active.size());
@@ -850,9 +872,21 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         place(k, unknown(k) + precond[freeVerts[k]] * x.segment<3>(3 * static_cast<Eigen::Index>(k)));
         rowMajorW.row(storageRank[static_cast<size_t>(freeVerts[k])]) = W.row(freeVerts[k]);
       }
+      detail::UntangleKernelData data;
+      if (simdKernel) {
+        data.positions = rowMajorW.data();
+        data.vertices = activeVertices.data()->data();
+        data.gradients = activeGrad.data()->data();
+        data.weights = activeWeight.data();
+        data.slots = activeSlots.data()->data();
+        data.terms = g ? cornerGrad.termData() : nullptr;
+        data.det = det.data();
+        data.eps = eps, data.theta = options.theta;
+      }
       const double E = tbb::parallel_deterministic_reduce(
           tbb::blocked_range<size_t>(0, active.size(), 1024), 0.0,
           [&](const tbb::blocked_range<size_t>& r, double sum) {
+            if (simdKernel) return simdKernel(data, r.begin(), r.end(), sum);
             for (size_t a = r.begin(); a != r.end(); ++a) {
               const auto& G = activeGrad[a];
               const Eigen::Matrix3d J = detail::tetJacobian(rowMajorW, activeVertices[a], G);
