@@ -3,43 +3,104 @@
 // the projected Newton iterations, for the untangler and the barrier morph.
 // A step whose value is not finite (a barrier crossed) is rejected like one
 // that does not decrease enough.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
-#include <deque>
 #include <vector>
 
 namespace tet2spline::detail {
 
+// An element-wise loop over [0, n) on both cores when n is large (each
+// element's value does not depend on the split, so the bits are the same).
+template <class Body>
+inline void forEachElement(Eigen::Index n, const Body& body) {
+  constexpr Eigen::Index kSerialBelow = 1 << 16, kGrain = 1 << 15;
+  if (n < kSerialBelow) {
+    body(Eigen::Index{0}, n);
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, kGrain), [&](const tbb::blocked_range<Eigen::Index>& r) {
+    body(r.begin(), r.end());
+  });
+}
+
 // Minimises f with L-BFGS and Armijo backtracking; returns iterations used.
+// The history is a ring of vectors allocated once, the new pair (s, y) is
+// written into a spare slot (no copies, no allocation per iteration), and
+// the element-wise updates run on both cores; the dot products stay
+// Eigen's, in one thread. Each value is computed by the same operations as
+// with Eigen expressions on temporaries (d −= α y is d_i − α y_i, ...), so
+// the iterates are bitwise those of the plain two-loop recursion. Measured
+// on bunny00's final untangling (326k unknowns, memory 10): the recursion
+// streamed about 115 vectors per iteration in one thread, 7.5% of the
+// run's samples.
 template <class FunGrad>
 inline int lbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
-  Eigen::VectorXd g(x.size()), gNew(x.size()), xNew(x.size());
+  const Eigen::Index n = x.size();
+  Eigen::VectorXd g(n), gNew(n), xNew(n), d(n);
   double f = fg(x, g);
-  std::deque<Eigen::VectorXd> S, Y;
-  std::deque<double> rho;
+  const int slots = std::max(memory, 0) + 1;
+  std::vector<Eigen::VectorXd> S(static_cast<size_t>(slots)), Y(static_cast<size_t>(slots));
+  std::vector<double> rho(static_cast<size_t>(slots));
+  std::vector<int> order;  // the history's slots, oldest first
+  order.reserve(static_cast<size_t>(slots));
+  std::vector<double> alpha;
+  int spare = 0;  // the slot the next pair is written into
+  auto clear = [&] { order.clear(), spare = 0; };
   int it = 0;
   for (; it < maxIter; ++it) {
     if (!(g.squaredNorm() > 0)) break;
     // Two-loop recursion.
-    Eigen::VectorXd d = -g;
-    std::vector<double> alpha(S.size());
-    for (int k = static_cast<int>(S.size()) - 1; k >= 0; --k) {
-      alpha[k] = rho[k] * S[k].dot(d);
-      d -= alpha[k] * Y[k];
+    forEachElement(n, [&](Eigen::Index b, Eigen::Index e) {
+      for (Eigen::Index i = b; i < e; ++i) d[i] = -g[i];
+    });
+    const int m = static_cast<int>(order.size());
+    alpha.assign(static_cast<size_t>(m), 0.0);
+    for (int k = m - 1; k >= 0; --k) {
+      const int q = order[static_cast<size_t>(k)];
+      alpha[k] = rho[q] * S[q].dot(d);
+      const double a = alpha[k];
+      const double* yq = Y[q].data();
+      forEachElement(n, [&](Eigen::Index b, Eigen::Index e) {
+        for (Eigen::Index i = b; i < e; ++i) d[i] = d[i] - a * yq[i];
+      });
     }
-    double gamma = S.empty() ? 1.0 / std::max(g.norm(), 1e-300) : S.back().dot(Y.back()) / Y.back().squaredNorm();
-    d *= gamma;
-    for (size_t k = 0; k < S.size(); ++k) d += S[k] * (alpha[k] - rho[k] * Y[k].dot(d));
+    double gamma = 0;
+    if (m == 0) {
+      gamma = 1.0 / std::max(g.norm(), 1e-300);
+    } else {
+      const int q = order.back();
+      gamma = S[q].dot(Y[q]) / Y[q].squaredNorm();
+    }
+    forEachElement(n, [&](Eigen::Index b, Eigen::Index e) {
+      for (Eigen::Index i = b; i < e; ++i) d[i] = d[i] * gamma;
+    });
+    for (int k = 0; k < m; ++k) {
+      const int q = order[static_cast<size_t>(k)];
+      const double c = alpha[k] - rho[q] * Y[q].dot(d);
+      const double* sq = S[q].data();
+      forEachElement(n, [&](Eigen::Index b, Eigen::Index e) {
+        for (Eigen::Index i = b; i < e; ++i) d[i] = d[i] + sq[i] * c;
+      });
+    }
     double slope = g.dot(d);
     if (!(slope < 0)) {
-      S.clear(), Y.clear(), rho.clear();
-      d = -g / std::max(g.norm(), 1e-300);
+      clear();
+      const double norm = std::max(g.norm(), 1e-300);
+      forEachElement(n, [&](Eigen::Index b, Eigen::Index e) {
+        for (Eigen::Index i = b; i < e; ++i) d[i] = -g[i] / norm;
+      });
       slope = g.dot(d);
     }
     double step = 1, fNew = 0;
     bool accepted = false;
     for (int ls = 0; ls < 40; ++ls, step *= 0.5) {
-      xNew = x + step * d;
+      forEachElement(n, [&](Eigen::Index b, Eigen::Index e) {
+        for (Eigen::Index i = b; i < e; ++i) xNew[i] = x[i] + step * d[i];
+      });
       fNew = fg(xNew, gNew);
       if (std::isfinite(fNew) && fNew <= f + 1e-4 * step * slope) {
         accepted = true;
@@ -47,19 +108,31 @@ inline int lbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
       }
     }
     if (!accepted) {
-      if (S.empty()) break;  // even steepest descent cannot decrease f
-      S.clear(), Y.clear(), rho.clear();
+      if (order.empty()) break;  // even steepest descent cannot decrease f
+      clear();
       continue;
     }
-    const Eigen::VectorXd s = xNew - x, y = gNew - g;
+    Eigen::VectorXd& s = S[static_cast<size_t>(spare)];
+    Eigen::VectorXd& y = Y[static_cast<size_t>(spare)];
+    s.resize(n), y.resize(n);
+    forEachElement(n, [&](Eigen::Index b, Eigen::Index e) {
+      for (Eigen::Index i = b; i < e; ++i) s[i] = xNew[i] - x[i], y[i] = gNew[i] - g[i];
+    });
     const double sy = s.dot(y);
     x.swap(xNew);
     g.swap(gNew);
     const double decrease = f - fNew;
     f = fNew;
-    if (sy > 1e-12 * s.norm() * y.norm()) {
-      S.push_back(s), Y.push_back(y), rho.push_back(1 / sy);
-      if (static_cast<int>(S.size()) > memory) S.pop_front(), Y.pop_front(), rho.pop_front();
+    if (memory > 0 && sy > 1e-12 * s.norm() * y.norm()) {
+      rho[static_cast<size_t>(spare)] = 1 / sy;
+      order.push_back(spare);
+      if (static_cast<int>(order.size()) > memory) order.erase(order.begin());
+      // the next spare: a slot outside the history
+      for (int q = 0; q < slots; ++q)
+        if (std::find(order.begin(), order.end(), q) == order.end()) {
+          spare = q;
+          break;
+        }
     }
     if (decrease <= 1e-12 * std::abs(f)) {
       ++it;
