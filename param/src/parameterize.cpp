@@ -653,6 +653,22 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     // 2. ball map
     BallMapOptions ballOptions = options.ballMap;
     if (options.transport) ballOptions.sphere.areaCorrectionIterations = options.sphereAreaCorrectionIterations;
+    // With transport the ball map only places the sites (below), so its
+    // untangling stops growing its regions once a few tets stay put, as the
+    // final untangling does (UntangleOptions::stallBelow), and the local
+    // repair takes what is left. Measured on bunny00's TetGen mesh with
+    // OpenBLAS instead of ATLAS behind CHOLMOD (the harmonic map's last bits
+    // differ): 13, 12, 12 tets left over regions of 7843, 25332 and 66713
+    // free vertices, 167 s, where the local repair then took the 12 to 0
+    // in a fraction of a second (with the rule: 27 s, and the whole `param`
+    // 236 -> 105 s). A run that reaches 0 (bunny00 with ATLAS: 117 -> 0 in
+    // its second region) does not meet the rule: of the ten genus-0 test
+    // meshes (`param`, cube) only spool's and hand's maps changed. spool's
+    // ball map keeps 2 inverted tets, and its final untangling then ends
+    // valid after 15 edge splits, where before it left 3 for the morph:
+    // 75 -> 14 s (volume ratio p1/p99 0.091/4.21 -> 0.060/6.36); hand
+    // goes to the morph either way, 126 -> 142 s.
+    if (options.transport && ballOptions.untangle.stallBelow == 0) ballOptions.untangle.stallBelow = kMaxSplitTets;
     ballOptions.progress = [&](double f, const std::string& m) {
       return !options.progress || options.progress(f >= 0 ? 0.01 + 0.29 * f : -1, m);
     };
