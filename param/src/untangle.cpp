@@ -900,12 +900,12 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         rowMajorW.row(storageRank[static_cast<size_t>(freeVerts[k])]) = W.row(freeVerts[k]);
       }
       detail::UntangleKernelData data;
-      if (simdKernel) {
+      if (simdKernel && !active.empty()) {  // (an empty region's vectors have no first element to point at)
         data.positions = rowMajorW.data();
-        data.vertices = activeVertices.data()->data();
-        data.gradients = activeGrad.data()->data();
+        data.vertices = activeVertices.front().data();
+        data.gradients = activeGrad.front().data();
         data.weights = activeWeight.data();
-        data.slots = activeSlots.data()->data();
+        data.slots = activeSlots.front().data();
         data.terms = g ? cornerGrad.termData() : nullptr;
         data.det = det.data();
         data.eps = eps, data.theta = options.theta;
