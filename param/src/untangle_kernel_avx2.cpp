@@ -55,8 +55,15 @@ V cubeRoot4(V x) {
   const I product = _mm256_mul_epi32(xe, _mm256_set1_epi64x(0x55555556));
   const I q = _mm256_sub_epi32(_mm256_srli_epi64(product, 32), _mm256_srai_epi32(xe, 31));
   const I r = _mm256_sub_epi32(xe, _mm256_add_epi32(q, _mm256_add_epi32(q, q)));
-  const I index = _mm256_and_si256(_mm256_add_epi32(r, _mm256_set1_epi64x(2)), _mm256_set1_epi64x(0xffffffffLL));
-  const V factor = _mm256_i64gather_pd(kFactor, index, 8);
+  // kFactor[2 + r] by blends, not a gather (slow where the GDS mitigation
+  // is on): r moved to the high half, so a 64-bit compare sees r alone
+  const I high = _mm256_slli_epi64(r, 32);
+  V factor = splat(kFactor[2]);
+  for (int k = -2; k <= 2; ++k) {
+    if (k == 0) continue;
+    const I key = _mm256_set1_epi64x(static_cast<long long>(static_cast<std::uint64_t>(static_cast<std::uint32_t>(k)) << 32));
+    factor = _mm256_blendv_pd(factor, splat(kFactor[2 + k]), _mm256_castsi256_pd(_mm256_cmpeq_epi64(high, key)));
+  }
   const V ym = u * (t2 + splat(2.0) * xm) / (splat(2.0) * t2 + xm) * factor;
   // (q's low 12 bits land in the exponent field; the rest shifts out, as
   // with the scalar code's 64-bit shift of the sign-extended quotient)
