@@ -126,13 +126,15 @@ inline int lbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
     if (memory > 0 && sy > 1e-12 * s.norm() * y.norm()) {
       rho[static_cast<size_t>(spare)] = 1 / sy;
       order.push_back(spare);
-      if (static_cast<int>(order.size()) > memory) order.erase(order.begin());
-      // the next spare: a slot outside the history
-      for (int q = 0; q < slots; ++q)
-        if (std::find(order.begin(), order.end(), q) == order.end()) {
-          spare = q;
-          break;
-        }
+      // The next spare: the oldest pair's slot once the history is full;
+      // until then (since the last clear, slots are used in turn) the next
+      // unused one.
+      if (static_cast<int>(order.size()) > memory) {
+        spare = order.front();
+        order.erase(order.begin());
+      } else {
+        spare = static_cast<int>(order.size());
+      }
     }
     if (decrease <= 1e-12 * std::abs(f)) {
       ++it;

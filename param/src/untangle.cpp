@@ -893,23 +893,25 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     // the same maps (untangle_kernel.h).
     const detail::UntangleKernel simdKernel = detail::simdUntangleKernel();
     for (Eigen::Index v = 0; v < nvx; ++v) rowMajorW.row(storageRank[static_cast<size_t>(v)]) = W.row(v);
+    // Its arrays, fixed for the region (ε and the gradient's terms are set per evaluation).
+    detail::UntangleKernelData data;
+    if (simdKernel && !active.empty()) {  // (an empty region's vectors have no first element to point at)
+      data.positions = rowMajorW.data();
+      data.vertices = activeVertices.front().data();
+      data.gradients = activeGrad.front().data();
+      data.weights = activeWeight.data();
+      data.slots = activeSlots.front().data();
+      data.det = det.data();
+      data.theta = options.theta;
+    }
     auto evaluate = [&](const Eigen::VectorXd& x, Eigen::VectorXd* g) -> double {
       result.tetEvaluations += static_cast<double>(active.size());
       for (size_t k = 0; k < freeVerts.size(); ++k) {
         place(k, unknown(k) + precond[freeVerts[k]] * x.segment<3>(3 * static_cast<Eigen::Index>(k)));
         rowMajorW.row(storageRank[static_cast<size_t>(freeVerts[k])]) = W.row(freeVerts[k]);
       }
-      detail::UntangleKernelData data;
-      if (simdKernel && !active.empty()) {  // (an empty region's vectors have no first element to point at)
-        data.positions = rowMajorW.data();
-        data.vertices = activeVertices.front().data();
-        data.gradients = activeGrad.front().data();
-        data.weights = activeWeight.data();
-        data.slots = activeSlots.front().data();
-        data.terms = g ? cornerGrad.termData() : nullptr;
-        data.det = det.data();
-        data.eps = eps, data.theta = options.theta;
-      }
+      data.terms = g ? cornerGrad.termData() : nullptr;
+      data.eps = eps;
       const double E = tbb::parallel_deterministic_reduce(
           tbb::blocked_range<size_t>(0, active.size(), 1024), 0.0,
           [&](const tbb::blocked_range<size_t>& r, double sum) {
