@@ -24,6 +24,7 @@
 
 #include "block_hessian.h"
 #include "lbfgs.h"
+#include "max_min_barrier.h"
 #include "sliding.h"
 #include "spd_solver.h"
 #include "tet2spline/param/topology.h"
@@ -79,16 +80,54 @@ void growRings(std::vector<char>& mark, const Eigen::MatrixX4i& T, const detail:
   }
 }
 
-// Largest t with A z + b >= t·e_tets, t <= 1, inside a box: one vertex's
-// max-min problem (see maxMinSweeps). Rows of `a` are the constraints
-// a·z + b > 0 over z = (d, t) with d the free coordinates' displacement;
-// z starts strictly feasible. Log-barrier path following, Newton inside.
-// Returns z.
-// `products`: H and g by dense matrix products (for the patches' larger
-// problems) instead of a sum over the rows (the single vertices' problems,
-// kept as they were so that their results stay bitwise the same).
-Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, Eigen::VectorXd z,
-                              bool products = false, double gap = 1e-7) {
+}  // namespace
+
+namespace detail {
+namespace {
+
+// The barrier's gradient and Hessian as sums over the rows j of `a`:
+// g_p −= a_jp / r_j and H_pq += (a_jp a_jq) / r_j² (the lower triangle: all
+// that LDLT reads), each in row order. For N columns known at compile time
+// the sums stay in registers (a dynamic H was a load and a store per term:
+// most of the local repair's time); the same operations in the same order,
+// so the same bits as the loops over Eigen's dynamic H (N = Dynamic).
+template <int N>
+void barrierSums(const Eigen::MatrixXd& a, const Eigen::VectorXd& r, Eigen::VectorXd& g, Eigen::MatrixXd& H) {
+  const Eigen::Index m = a.rows(), n = a.cols();
+  if constexpr (N == Eigen::Dynamic) {
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const double rj = r(j), rr = rj * rj;
+      for (Eigen::Index p = 0; p < n; ++p) g(p) -= a(j, p) / rj;
+      for (Eigen::Index q = 0; q < n; ++q)
+        for (Eigen::Index p = q; p < n; ++p) H(p, q) += (a(j, p) * a(j, q)) / rr;
+    }
+  } else {
+    double gs[N], hs[N][N];
+    for (int p = 0; p < N; ++p) {
+      gs[p] = g(p);
+      for (int q = 0; q < N; ++q) hs[p][q] = H(p, q);
+    }
+    const double* col[N];
+    for (int p = 0; p < N; ++p) col[p] = a.data() + p * m;
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const double rj = r(j), rr = rj * rj;
+      double aj[N];
+      for (int p = 0; p < N; ++p) aj[p] = col[p][j];
+      for (int p = 0; p < N; ++p) gs[p] -= aj[p] / rj;
+      for (int q = 0; q < N; ++q)
+        for (int p = q; p < N; ++p) hs[p][q] += (aj[p] * aj[q]) / rr;
+    }
+    for (int p = 0; p < N; ++p) {
+      g(p) = gs[p];
+      for (int q = p; q < N; ++q) H(q, p) = hs[q][p];
+    }
+  }
+}
+
+}  // namespace
+
+Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, Eigen::VectorXd z, bool products,
+                              double gap) {
   // Every buffer is allocated once: the local repair solves hundreds of
   // thousands of these small problems, and a temporary per expression made
   // a fifth of its time malloc and free (bunny00 scaled by 1 + 2·10⁻⁹:
@@ -105,15 +144,30 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
     product.noalias() = a * y;
     out = product + b;
   };
+  // r = slack(y) and, when it is positive, the sum of its logs.
+  double lastLogSum = 0;
   auto phi = [&](const Eigen::VectorXd& y, double tau, bool& ok) {
     slackInto(y, r);
     ok = (r.array() > 0).all();
-    return ok ? -tau * y(n - 1) - r.array().log().sum() : std::numeric_limits<double>::infinity();
+    if (ok) lastLogSum = r.array().log().sum();
+    return ok ? -tau * y(n - 1) - lastLogSum : std::numeric_limits<double>::infinity();
   };
+  // Whether r is z's slack and zLogSum its log sum (zOk: r > 0). An accepted
+  // trial point is z's next value bit for bit (z + step·dz either way), so
+  // its slack and log sum carry over: each Newton iteration computes the
+  // slack and logs once for its start (they were three slacks and two log
+  // sums, about half the repair's time).
+  bool current = false, zOk = false;
+  double zLogSum = 0;
   // (τ up to 1e9 at the default gap, as before; smaller gaps go further)
   for (double tau = 1; tau < (gap < 1e-7 ? 1e3 / gap : 1e9) && static_cast<double>(m) / tau > gap; tau *= 8) {
     for (int it = 0; it < 40; ++it) {
-      slackInto(z, r);
+      if (!current) {
+        slackInto(z, r);
+        zOk = (r.array() > 0).all();
+        if (zOk) zLogSum = r.array().log().sum();
+        current = true;
+      }
       g.setZero();
       g(n - 1) = -tau;
       H.setZero();
@@ -123,11 +177,11 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
         g -= column;
         H.noalias() = scaled.transpose() * scaled;
       } else {
-        for (Eigen::Index j = 0; j < m; ++j) {
-          const double rj = r(j), rr = rj * rj;
-          for (Eigen::Index p = 0; p < n; ++p) g(p) -= a(j, p) / rj;
-          for (Eigen::Index q = 0; q < n; ++q)  // (the lower triangle: all that LDLT reads)
-            for (Eigen::Index p = q; p < n; ++p) H(p, q) += (a(j, p) * a(j, q)) / rr;
+        switch (n) {  // the sums in registers for a vertex's 2 to 4 unknowns
+          case 2: barrierSums<2>(a, r, g, H); break;
+          case 3: barrierSums<3>(a, r, g, H); break;
+          case 4: barrierSums<4>(a, r, g, H); break;
+          default: barrierSums<Eigen::Dynamic>(a, r, g, H);
         }
       }
       ldlt.compute(H);
@@ -135,9 +189,10 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
       dz = -dz;
       const double decrement = -g.dot(dz);
       if (!dz.allFinite() || !(decrement > 1e-12)) break;
+      const double f0 = zOk ? -tau * z(n - 1) - zLogSum : std::numeric_limits<double>::infinity();
       bool ok = false;
-      const double f0 = phi(z, tau, ok);
       double step = 1;
+      current = false;  // the trials overwrite r
       for (; step > 1e-12; step *= 0.5) {
         trial = z + step * dz;
         const double f = phi(trial, tau, ok);
@@ -145,10 +200,17 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
       }
       if (!(step > 1e-12)) break;
       z += step * dz;
+      current = true, zOk = true, zLogSum = lastLogSum;
     }
   }
   return z;
 }
+
+}  // namespace detail
+
+namespace {
+
+using detail::maxMinBarrier;
 
 constexpr std::uint8_t kMoveOnSphere = 8;
 constexpr int kPatchRepairAtMost = 100;  // tets and triangles left, for the patch moves
