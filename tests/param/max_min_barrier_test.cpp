@@ -100,6 +100,21 @@ Eigen::Vector3d volumeGradient(const Eigen::MatrixX3d& W, const Eigen::MatrixX4i
   return -((k % 2) ? -1.0 : 1.0) * (pb - pa).cross(pc - pa) / 6;
 }
 
+// After the volume rows from `row` on: t <= 1 and a box of ±half per
+// displacement, as the repair adds them; returns the feasible start
+// (no move, t one below the worst volume).
+Eigen::VectorXd closeProblem(Eigen::MatrixXd& a, Eigen::VectorXd& b, Eigen::Index row, double worst, double half) {
+  const Eigen::Index unknowns = a.cols() - 1;
+  a(row, unknowns) = -1, b(row) = 1, ++row;
+  for (Eigen::Index i = 0; i < unknowns; ++i) {
+    a(row, i) = 1, b(row) = half, ++row;
+    a(row, i) = -1, b(row) = half, ++row;
+  }
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(unknowns + 1);
+  z(unknowns) = worst - 1;
+  return z;
+}
+
 }  // namespace
 
 TEST(MaxMinBarrier, GivesTheBitsOfTheCodeItReplacedOnARealMeshsRepairProblems) {
@@ -147,13 +162,7 @@ TEST(MaxMinBarrier, GivesTheBitsOfTheCodeItReplacedOnARealMeshsRepairProblems) {
         worst = std::min(worst, b(row));
         ++row;
       }
-      a(row, nd) = -1, b(row) = 1, ++row;
-      for (Eigen::Index i = 0; i < nd; ++i) {
-        a(row, i) = 1, b(row) = 0.25 * edge, ++row;
-        a(row, i) = -1, b(row) = 0.25 * edge, ++row;
-      }
-      Eigen::VectorXd z = Eigen::VectorXd::Zero(nd + 1);
-      z(nd) = worst - 1;
+      const Eigen::VectorXd z = closeProblem(a, b, row, worst, 0.25 * edge);
       const Eigen::VectorXd got = detail::maxMinBarrier(a, b, z), want = referenceBarrier(a, b, z, false, 1e-7);
       ASSERT_TRUE(sameBits(got, want)) << "tet " << bad << " corner " << c << " (" << nd << " axes): " << got.transpose()
                                        << " against " << want.transpose();
@@ -183,13 +192,7 @@ TEST(MaxMinBarrier, GivesTheBitsOfTheCodeItReplacedOnARealMeshsRepairProblems) {
       worst = std::min(worst, b(row));
       ++row;
     }
-    a(row, unknowns) = -1, b(row) = 1, ++row;
-    for (Eigen::Index i = 0; i < unknowns; ++i) {
-      a(row, i) = 1, b(row) = 0.25 * edge, ++row;
-      a(row, i) = -1, b(row) = 0.25 * edge, ++row;
-    }
-    Eigen::VectorXd z = Eigen::VectorXd::Zero(unknowns + 1);
-    z(unknowns) = worst - 1;
+    const Eigen::VectorXd z = closeProblem(a, b, row, worst, 0.25 * edge);
     const double gap = std::clamp(1e-2 * std::abs(worst), 1e-14, 1e-7);
     for (bool products : {true, false}) {
       const Eigen::VectorXd got = detail::maxMinBarrier(a, b, z, products, gap),
