@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <tbb/parallel_sort.h>
 
 #include "tet2spline/param/harmonic_map.h"
 #include "tet2spline/param/topology.h"
@@ -36,8 +37,14 @@ Eigen::MatrixX3i outwardBoundaryFaces(const Eigen::MatrixX4i& T) {
       std::sort(face.key.begin(), face.key.end());
       faces.push_back(face);
     }
-  std::sort(faces.begin(), faces.end(), [](const Face& x, const Face& y) {
-    return x.key != y.key ? x.key < y.key : x.oriented < y.oriented;
+  // On both cores, element by element (std::array's != is a memcmp call);
+  // the order is total, so the same as std::sort's.
+  tbb::parallel_sort(faces.begin(), faces.end(), [](const Face& x, const Face& y) {
+    for (int k = 0; k < 3; ++k)
+      if (x.key[k] != y.key[k]) return x.key[k] < y.key[k];
+    for (int k = 0; k < 3; ++k)
+      if (x.oriented[k] != y.oriented[k]) return x.oriented[k] < y.oriented[k];
+    return false;
   });
   std::vector<std::array<int, 3>> out;
   for (size_t i = 0; i < faces.size();) {

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "spd_solver.h"
 #include "tet2spline/param/error.h"
@@ -115,16 +117,32 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
     const double l = std::log(volume6 / (6 * target));
     return l * l;
   };
-  std::vector<double> before;
+  // Per tet: 6 × its volume in P and its misfit, kept up to date as the
+  // vertices move (a taken move writes its star's new values), so a vertex's
+  // "before" is read, not recomputed with a log per tet: the same values.
+  std::vector<double> volume6(static_cast<size_t>(nt)), misfitOf(static_cast<size_t>(measured ? nt : 0));
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, nt, 4096), [&](const tbb::blocked_range<Eigen::Index>& r) {
+    for (Eigen::Index t = r.begin(); t != r.end(); ++t) {
+      volume6[static_cast<size_t>(t)] = tetVolume6(P, T, static_cast<int>(t));
+      if (measured) misfitOf[static_cast<size_t>(t)] = misfit(static_cast<int>(t), volume6[static_cast<size_t>(t)]);
+    }
+  });
+  std::vector<double> after, misfitAfterOf;  // the trial's values over the star
   double misfitBefore = 0;
   auto acceptable = [&](int i) {
     double misfitAfter = 0;
-    for (int k = tetsOf.offset[static_cast<size_t>(i)], n = 0; k < tetsOf.offset[static_cast<size_t>(i) + 1]; ++k, ++n) {
+    after.clear();
+    misfitAfterOf.clear();
+    for (int k = tetsOf.offset[static_cast<size_t>(i)]; k < tetsOf.offset[static_cast<size_t>(i) + 1]; ++k) {
       const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
       if (orient(P.row(T(t, 0)), P.row(T(t, 1)), P.row(T(t, 2)), P.row(T(t, 3))) <= 0) return false;
       const double v = tetVolume6(P, T, t);
-      if (v < options.minVolumeKept * before[static_cast<size_t>(n)]) return false;
-      if (measured) misfitAfter += misfit(t, v);
+      if (v < options.minVolumeKept * volume6[static_cast<size_t>(t)]) return false;
+      after.push_back(v);
+      if (measured) {
+        misfitAfterOf.push_back(misfit(t, v));
+        misfitAfter += misfitAfterOf.back();
+      }
     }
     if (measured && misfitAfter > misfitBefore) return false;
     for (int f : facesOf[static_cast<size_t>(i)]) {
@@ -139,19 +157,23 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
   // trial is taken.
   auto moveTowards = [&](int i, const Eigen::RowVector3d& target, const auto& project) {
     const Eigen::RowVector3d old = P.row(i);
-    before.clear();
+    const int k0 = tetsOf.offset[static_cast<size_t>(i)], k1 = tetsOf.offset[static_cast<size_t>(i) + 1];
     misfitBefore = 0;
-    for (int k = tetsOf.offset[static_cast<size_t>(i)]; k < tetsOf.offset[static_cast<size_t>(i) + 1]; ++k) {
-      const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
-      before.push_back(tetVolume6(P, T, t));
-      if (measured) misfitBefore += misfit(t, before.back());
-    }
+    if (measured)
+      for (int k = k0; k < k1; ++k) misfitBefore += misfitOf[static_cast<size_t>(tetsOf.corner[static_cast<size_t>(k)] / 4)];
     double s = options.step;
     for (int halving = 0; halving <= 4; ++halving, s *= 0.5) {
       Eigen::RowVector3d p = old + s * (target - old);
       if (!project(p)) continue;
       P.row(i) = p;
-      if (acceptable(i)) return true;
+      if (acceptable(i)) {
+        for (int k = k0; k < k1; ++k) {
+          const auto t = static_cast<size_t>(tetsOf.corner[static_cast<size_t>(k)] / 4);
+          volume6[t] = after[static_cast<size_t>(k - k0)];
+          if (measured) misfitOf[t] = misfitAfterOf[static_cast<size_t>(k - k0)];
+        }
+        return true;
+      }
     }
     P.row(i) = old;
     return false;
@@ -205,14 +227,25 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
   // Interior sweeps: the same rule with the affine function of x in 3D
   // fitted to the vertex's neighbours through its tets.
   if (options.interiorSweeps > 0) {
-    std::vector<int> nb;
-    for (int sweep = 0; sweep < options.interiorSweeps; ++sweep) {
-      for (Eigen::Index iv = 0; iv < nv; ++iv) {
+    // What depends only on X, once and on both cores: each interior vertex's
+    // neighbours through its tets (sorted, without repeats), their scale,
+    // and the fit's normal matrix AtA, factored, for those whose neighbours
+    // spread in three directions (the sweeps then only sum AtR).
+    struct InteriorFit {
+      std::vector<int> nb;
+      double scale = 0;
+      Eigen::LDLT<Eigen::Matrix4d> ldlt;
+      bool usable = false;
+    };
+    std::vector<InteriorFit> fits(static_cast<size_t>(nv));
+    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, nv, 1024), [&](const tbb::blocked_range<Eigen::Index>& r) {
+      for (Eigen::Index iv = r.begin(); iv != r.end(); ++iv) {
         const int i = static_cast<int>(iv);
-        if (!facesOf[static_cast<size_t>(i)].empty() || isHeld(i)) continue;
+        if (!facesOf[static_cast<size_t>(i)].empty()) continue;
         const int k0 = tetsOf.offset[static_cast<size_t>(i)], k1 = tetsOf.offset[static_cast<size_t>(i) + 1];
         if (k0 == k1) continue;
-        nb.clear();
+        InteriorFit& fit = fits[static_cast<size_t>(i)];
+        std::vector<int>& nb = fit.nb;
         for (int k = k0; k < k1; ++k) {
           const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
           for (int c = 0; c < 4; ++c)
@@ -221,23 +254,37 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
         std::sort(nb.begin(), nb.end());
         nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
         if (nb.size() < 4) continue;
-        Eigen::Matrix4d AtA = Eigen::Matrix4d::Zero();
-        Eigen::Matrix<double, 4, 3> AtR = Eigen::Matrix<double, 4, 3>::Zero();
         double scale = 0;
         for (int j : nb) scale = std::max(scale, (X.row(j) - X.row(i)).norm());
         if (!(scale > 0)) continue;
+        Eigen::Matrix4d AtA = Eigen::Matrix4d::Zero();
         for (int j : nb) {
           const Eigen::Vector3d d = (X.row(j) - X.row(i)).transpose() / scale;
           const Eigen::Vector4d a(1.0, d.x(), d.y(), d.z());
           AtA += a * a.transpose();
-          AtR += a * P.row(j);
         }
         // The neighbours must spread in three directions.
         const Eigen::Matrix3d S =
             AtA.block<3, 3>(1, 1) - AtA.block<3, 1>(1, 0) * AtA.block<1, 3>(0, 1) / AtA(0, 0);
         const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(S, Eigen::EigenvaluesOnly);
         if (!(eig.eigenvalues()(0) > 1e-3 * eig.eigenvalues()(2))) continue;
-        const Eigen::RowVector3d target = AtA.ldlt().solve(AtR).row(0);
+        fit.scale = scale;
+        fit.ldlt.compute(AtA);
+        fit.usable = true;
+      }
+    });
+    for (int sweep = 0; sweep < options.interiorSweeps; ++sweep) {
+      for (Eigen::Index iv = 0; iv < nv; ++iv) {
+        const int i = static_cast<int>(iv);
+        const InteriorFit& fit = fits[static_cast<size_t>(i)];
+        if (!fit.usable || isHeld(i)) continue;
+        Eigen::Matrix<double, 4, 3> AtR = Eigen::Matrix<double, 4, 3>::Zero();
+        for (int j : fit.nb) {
+          const Eigen::Vector3d d = (X.row(j) - X.row(i)).transpose() / fit.scale;
+          const Eigen::Vector4d a(1.0, d.x(), d.y(), d.z());
+          AtR += a * P.row(j);
+        }
+        const Eigen::RowVector3d target = fit.ldlt.solve(AtR).row(0);
         if (!target.allFinite()) continue;
         if (moveTowards(i, target, [](Eigen::RowVector3d&) { return true; })) ++result.interiorMoves;
         else ++result.refused;

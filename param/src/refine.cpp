@@ -1,6 +1,7 @@
 #include "tet2spline/param/refine.h"
 
 #include <Eigen/Geometry>
+#include <tbb/parallel_sort.h>
 #include <algorithm>
 #include <array>
 #include <cstdint>
@@ -75,7 +76,7 @@ int splitBoundaryFaces(TetMesh& mesh) {
       std::sort(f.begin(), f.end());
       candidates.push_back(f);
     }
-  std::sort(candidates.begin(), candidates.end());
+  tbb::parallel_sort(candidates.begin(), candidates.end());  // (equal faces are equal values: the same order)
   std::vector<std::array<int, 3>> interior;
   for (size_t i = 0; i + 1 < candidates.size(); ++i)
     if (candidates[i] == candidates[i + 1]) interior.push_back(candidates[i]);
