@@ -133,18 +133,22 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
     double misfitAfter = 0;
     after.clear();
     misfitAfterOf.clear();
+    // Every test refuses the move, so their order does not change which
+    // moves are taken: the cheap volume test first, the exact orientation
+    // only for a tet that keeps its volume, and the misfit's partial sum
+    // (of terms >= 0, so it never falls) refuses as soon as it is above.
     for (int k = tetsOf.offset[static_cast<size_t>(i)]; k < tetsOf.offset[static_cast<size_t>(i) + 1]; ++k) {
       const int t = tetsOf.corner[static_cast<size_t>(k)] / 4;
-      if (orient(P.row(T(t, 0)), P.row(T(t, 1)), P.row(T(t, 2)), P.row(T(t, 3))) <= 0) return false;
       const double v = tetVolume6(P, T, t);
       if (v < options.minVolumeKept * volume6[static_cast<size_t>(t)]) return false;
+      if (orient(P.row(T(t, 0)), P.row(T(t, 1)), P.row(T(t, 2)), P.row(T(t, 3))) <= 0) return false;
       after.push_back(v);
       if (measured) {
         misfitAfterOf.push_back(misfit(t, v));
         misfitAfter += misfitAfterOf.back();
+        if (misfitAfter > misfitBefore) return false;
       }
     }
-    if (measured && misfitAfter > misfitBefore) return false;
     for (int f : facesOf[static_cast<size_t>(i)]) {
       if (orient(apex, P.row(faces(f, 0)), P.row(faces(f, 1)), P.row(faces(f, 2))) <= 0) return false;
     }
