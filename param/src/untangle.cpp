@@ -163,9 +163,8 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
   for (double tau = 1; tau < (gap < 1e-7 ? 1e3 / gap : 1e9) && static_cast<double>(m) / tau > gap; tau *= 8) {
     for (int it = 0; it < 40; ++it) {
       if (!current) {
-        slackInto(z, r);
-        zOk = (r.array() > 0).all();
-        if (zOk) zLogSum = r.array().log().sum();
+        phi(z, tau, zOk);  // (sets r and, where zOk, lastLogSum)
+        zLogSum = lastLogSum;
         current = true;
       }
       g.setZero();
