@@ -521,12 +521,6 @@ constexpr int kFinishingRounds = 8;
 // Edge splits for the tets those rounds leave (see there): at most this many
 // tets, and this many splits.
 constexpr int kMaxSplitTets = 64;
-// ε rounds without a new fewest that end a region of the final untangling
-// once at most kMaxSplitTets are left (UntangleOptions::regionStallRounds).
-// Not in the ball map's untangling: there it changed the sites, hence the
-// transport, of triceratops, spool and hand (hand's morph then ended 3.25
-// target edges from the transport's map instead of 0.60).
-constexpr int kRegionStallRounds = 4;
 constexpr int kSplitRounds = 3;
 
 // The longest edge in U of every tet that is not positive in U, except
@@ -837,7 +831,6 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // the finishing rounds and the edge splits below take them (see
       // UntangleOptions::stallBelow).
       untangleOptions.stallBelow = kMaxSplitTets;
-      if (untangleOptions.regionStallRounds == 0) untangleOptions.regionStallRounds = kRegionStallRounds;
       untangleOptions.progress = [&](double, const std::string& m) {
         return !options.progress || options.progress(-1, "final " + m);
       };

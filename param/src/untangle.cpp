@@ -1169,9 +1169,6 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     };
 
     Eigen::VectorXd x = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(freeVerts.size()));
-    // The region's fewest inverted after a round, and the rounds since (regionStallRounds).
-    long regionFewest = std::numeric_limits<long>::max();
-    int sinceFewest = 0;
     for (int outer = 0; outer < options.maxOuterIterations; ++outer) {
       // ε from the smallest determinant (the reference code's eq. (7)): large
       // enough that χ stays smooth around the worst tet, halved base every 10.
@@ -1193,15 +1190,12 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       result.minDet = dmin;
       // (the message counts the region's tets and boundary cones with
       // det J <= 0 in floating point; the exact count comes at the region's end)
-      const long invertedNow = std::count_if(det.begin(), det.end(), [](double d) { return d <= 0; });
-      if (invertedNow < regionFewest) regionFewest = invertedNow, sinceFewest = 0;
-      else ++sinceFewest;
       if (options.progress &&
           !options.progress(-1, "untangle: eps " + std::to_string(eps) + ", min det " + std::to_string(dmin) + ", E " +
                                   std::to_string(E) + ", L-BFGS iterations " + std::to_string(result.lbfgsIterations) +
                                   ", Newton iterations " + std::to_string(result.newtonIterations) +
                                   ", free " + std::to_string(freeVerts.size()) + ", inverted " +
-                                  std::to_string(invertedNow) +
+                                  std::to_string(std::count_if(det.begin(), det.end(), [](double d) { return d <= 0; })) +
                                   ", work " + formatWork(result.tetEvaluations, nt))) {
         result.status = Status::failure("untangle: stopped by the progress callback");
         result.stopped = true;
@@ -1212,19 +1206,6 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         break;
       }
       if (dmin <= 0 && outer + 1 >= options.regionRounds) break;  // this region has had its rounds: grow it
-      // Few left and none of the last rounds made a new fewest: the rest of
-      // the rounds rarely do (bunny00's final untangling, cube: 20 -> 17
-      // inverted over 16 rounds in a region of 2158 free vertices, 25 -> 15
-      // in one of 9143). Measured with regionStallRounds 4 (`param`, cube,
-      // TetGen's meshes): bunny00's final untangling 29.8 -> 27.0 s (45 ε
-      // rounds instead of 77; valid after 1 edge split instead of none;
-      // volume ratio p1/p99 0.289/2.135 -> 0.293/2.146), spool's 13.7 ->
-      // 9.3 s (3 edge splits instead of 15; p1/p99 0.060/6.36 ->
-      // 0.044/5.54), triceratops' 0.4 s shorter; the other seven of the ten
-      // test meshes never meet the rule (the same maps).
-      if (dmin <= 0 && options.regionStallRounds > 0 && regionFewest <= options.stallBelow &&
-          sinceFewest >= options.regionStallRounds)
-        break;
       // Floating point says untangled: confirm exactly on the active tets.
       if (dmin > 0) {
         int bad = 0;
