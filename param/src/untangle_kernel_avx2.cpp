@@ -104,10 +104,14 @@ double untangleKernelAvx2(const UntangleKernelData& d, std::size_t begin, std::s
     // from tet l: whole rows loaded and transposed in registers (a vertex's
     // 3 coordinates by a masked load: the last row has no fourth double),
     // where each lane's scalar was inserted one by one (12 + 12 four-way
-    // inserts per block); the corner terms leave the same way. Only where
-    // the values travel changes. Measured (`param` on bunny00's TetGen mesh,
-    // four alternating pairs, the same file): the final untangling 32.1,
-    // 26.9, 26.0, 25.1 -> 29.3, 24.3, 24.5, 25.0 s.
+    // inserts per block); the corner terms leave the same way (a masked
+    // store: the slot's fourth double is another corner's, perhaps another
+    // thread's). Only where the values travel changes. Measured (`param` on
+    // bunny00's TetGen mesh, alternating pairs, the same file): the final
+    // untangling 32.1, 26.9 -> 29.3, 24.3 s (the loads alone), 26.0, 25.1
+    // -> 24.5, 25.0 s (loads and stores); two later pairs against an older
+    // build of the same maps 31.1, 30.6 -> 31.4, 28.5 s: a second or two,
+    // within the host's noise.
     V P[4][3], G[3][4];
     const I xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
     for (int k = 0; k < 4; ++k) {
