@@ -148,10 +148,10 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
   // over the nonzeros (rows in compressed form), not the dense m × n.
   // Measured on spool's ball-domain `param` (perf: the dense Hessian
   // product 49% of the samples): its final untangling's local repairs
-  // 13.7, 12.6 and 18.7 s -> 1.4 to 2.7 s each, `param` 33 -> 16 s
-  // (fandisk's, homer's and hand's ball maps, whose repairs need no large
-  // patch, the same files). Problems of up to kDenseProductsUpTo unknowns
-  // keep the dense products' bits.
+  // 13.7, 12.6 and 18.7 s -> 1 to 2.5 s each, `param` 58.6 -> 18.7 s, the
+  // same file; hand's ball map the same file; homer's (whose repair uses
+  // large patches) another valid path, 48.7 -> 37.6 s. Problems of up to
+  // kDenseProductsUpTo unknowns keep the dense products' bits.
   const bool sparse = products && n > kDenseProductsUpTo;
   std::vector<int> rowStart, nzColumn;
   std::vector<double> nzValue;
