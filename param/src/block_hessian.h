@@ -94,6 +94,7 @@ class BlockHessian {
     });
     diagPos_.resize(nFree_);
     for (size_t k = 0; k < nFree_; ++k) diagPos_[k] = position(static_cast<int>(k), static_cast<int>(k));
+    cholmod_.cholmod().print = 0;  // (a matrix that is not positive definite is retried, not printed)
     if (solver_ == Solver::Cholmod) cholmod_.analyzePattern(H_);
   }
 

@@ -295,6 +295,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
   result.startSeconds = secondsSince(tStart);
 
   Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower> cholmod;
+  cholmod.cholmod().print = 0;  // library code prints nothing; a failed factorisation is handled below
   Eigen::VectorXd d(n), rhs(n), psiTrial(n), psiTrialTail = Eigen::VectorXd::Zero(n);
   // The grounded row (Cholesky solvers): the largest mass, a well-connected
   // cell. Grounding a crushed boundary cell (tiny facets) leaves the rest of

@@ -523,11 +523,12 @@ constexpr int kFinishingRounds = 8;
 constexpr int kMaxSplitTets = 64;
 constexpr int kSplitRounds = 3;
 
-// The longest edge in U of every tet that is not positive in U, except
-// edges with both ends on the boundary (a boundary edge or a chord: its new
-// vertex would have to lie on ∂Ω), without repeats.
+// The longest edge in U of every tet that is not positive in U, or with
+// `everyEdge` all six, except edges with both ends on the boundary (a
+// boundary edge or a chord: its new vertex would have to lie on ∂Ω), without
+// repeats.
 std::vector<std::pair<int, int>> edgesToSplit(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T,
-                                              const std::vector<char>& onBoundary) {
+                                              const std::vector<char>& onBoundary, bool everyEdge) {
   std::vector<std::pair<int, int>> edges;
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
     std::array<Eigen::Vector3d, 4> p;
@@ -539,10 +540,11 @@ std::vector<std::pair<int, int>> edgesToSplit(const Eigen::MatrixX3d& U, const E
       for (int j = i + 1; j < 4; ++j) {
         const int a = T(t, i), b = T(t, j);
         if (onBoundary[static_cast<size_t>(a)] && onBoundary[static_cast<size_t>(b)]) continue;
+        if (everyEdge) edges.emplace_back(std::min(a, b), std::max(a, b));
         const double length = (p[static_cast<size_t>(i)] - p[static_cast<size_t>(j)]).norm();
         if (length > longest) longest = length, edge = {std::min(a, b), std::max(a, b)};
       }
-    if (edge.first >= 0) edges.push_back(edge);
+    if (!everyEdge && edge.first >= 0) edges.push_back(edge);
   }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
@@ -942,11 +944,20 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // vertex is free to leave the edge. Measured on those two: 1 -> 0 and
       // 3 -> 0 in one round (about 1 s).
       // (Like those rounds, only with the local repair.) When they do not end
-      // valid, everything goes back to before the splits, for the morph
-      // (measured: spool on the cube, on one of three runs of the same input,
-      // 3 tets left after the splits, and the morph on the split mesh found
-      // no start; two later runs alone, of a later build, took the same path
-      // as each other, so whether the path varies from run to run is open).
+      // valid, everything goes back to before the splits (measured: spool on
+      // the cube, on one of three runs of the same input, 3 tets left after
+      // the splits, and the morph on the split mesh found no start), and
+      // every edge of each tet left is split instead: a tet pinched flat
+      // with no long edge, or flat because two of its vertices nearly meet,
+      // gets a free vertex on each edge. Measured on spool scaled by
+      // 1 + 3·10⁻⁹ (cube): 2 tets left, each with one cube-face and three
+      // interior vertices, volume −10⁻¹¹ of a target 6·10⁻⁶ (in one, two
+      // vertices 2.6·10⁻⁴ apart in U, 0.03 in the input); the longest-edge
+      // splits (8) did not repair them and the morph then failed after
+      // 80 s (the run ended with 2 tets inverted); all their edges (12):
+      // 9 -> 0 in the local repair, in 5 ms. Longest edges first, so that
+      // the maps those repair stay as they were. When neither ends valid,
+      // everything goes back to before the splits, for the morph.
       struct BeforeSplits {
         TetMesh mesh;
         UntangleResult untangled;
@@ -965,53 +976,62 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       if (fewTetsLeft())
         beforeSplits = BeforeSplits{r.mesh, untangled, r.ballU, w, physical, weighted, r.targetVolume,
                                     jumps, fixed, locks, r.param.finishingRounds};
-      for (int splitRound = 0; splitRound < kSplitRounds && fewTetsLeft(); ++splitRound) {
-        std::vector<char> onBoundary(static_cast<size_t>(nv), 0);
-        for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) onBoundary[static_cast<size_t>(r.boundaryVertices(k))] = 1;
-        const EdgeSplits cut = splitEdges(r.mesh, edgesToSplit(untangled.U, mesh.T, onBoundary));
-        if (cut.splits.empty()) break;
-        nv = mesh.numVertices(), nt = mesh.numTets();
-        // Every per-vertex and per-tet array follows the mesh.
-        auto grow = [&](Eigen::MatrixX3d& X) {
-          X.conservativeResize(nv, 3);
-          for (const EdgeSplit& e : cut.splits) X.row(e.vertex) = (1 - e.t) * X.row(e.a) + e.t * X.row(e.b);
-        };
-        grow(untangled.U);
-        grow(r.ballU);
-        fixed.resize(static_cast<size_t>(nv), false);
-        if (!locks.empty()) locks.resize(static_cast<size_t>(nv), 0);
-        jumps.resize(static_cast<size_t>(nv), 0);
-        for (const EdgeSplit& e : cut.splits)
-          jumps[static_cast<size_t>(e.vertex)] = jumps[static_cast<size_t>(e.a)] && jumps[static_cast<size_t>(e.b)];
-        const Eigen::VectorXd w0 = w;
-        w.resize(nt);
-        for (Eigen::Index t = 0; t < nt; ++t) w(t) = w0(cut.parent[static_cast<size_t>(t)]);
-        measureTets();
-        r.targetVolume = weighted * (r.domainVolume / totalWeighted);
-        untangleOptions.targetVolumes = r.targetVolume;
-        if (!locks.empty()) untangleOptions.cubeLocks = locks;
-        r.param.splitEdges += static_cast<int>(cut.splits.size());
-        leftOver = countNonPositiveTets(untangled.U, mesh.T) + untangled.flippedBoundaryTriangles;
-        untangled.invertedAfter = leftOver - untangled.flippedBoundaryTriangles;
-        r.param.finishingRounds += finishingRounds(leftOver);
-      }
-      if (beforeSplits && (untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0) && r.param.splitEdges > 0) {
-        BeforeSplits& b = *beforeSplits;
-        r.mesh = std::move(b.mesh);
-        untangled = std::move(b.untangled);
-        r.ballU = std::move(b.ballU);
-        w = std::move(b.w), physical = std::move(b.physical), weighted = std::move(b.weighted);
-        r.targetVolume = std::move(b.targetVolume);
-        jumps = std::move(b.jumps), fixed = std::move(b.fixed), locks = std::move(b.locks);
+      // Split rounds (longest edges, or every edge); when they end with tets
+      // left, everything goes back to before the splits.
+      int undoneSplits = 0;
+      auto splitRounds = [&](bool everyEdge) {
+        for (int splitRound = 0; splitRound < kSplitRounds && fewTetsLeft(); ++splitRound) {
+          std::vector<char> onBoundary(static_cast<size_t>(nv), 0);
+          for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) onBoundary[static_cast<size_t>(r.boundaryVertices(k))] = 1;
+          const EdgeSplits cut = splitEdges(r.mesh, edgesToSplit(untangled.U, mesh.T, onBoundary, everyEdge));
+          if (cut.splits.empty()) break;
+          nv = mesh.numVertices(), nt = mesh.numTets();
+          // Every per-vertex and per-tet array follows the mesh.
+          auto grow = [&](Eigen::MatrixX3d& X) {
+            X.conservativeResize(nv, 3);
+            for (const EdgeSplit& e : cut.splits) X.row(e.vertex) = (1 - e.t) * X.row(e.a) + e.t * X.row(e.b);
+          };
+          grow(untangled.U);
+          grow(r.ballU);
+          fixed.resize(static_cast<size_t>(nv), false);
+          if (!locks.empty()) locks.resize(static_cast<size_t>(nv), 0);
+          jumps.resize(static_cast<size_t>(nv), 0);
+          for (const EdgeSplit& e : cut.splits)
+            jumps[static_cast<size_t>(e.vertex)] = jumps[static_cast<size_t>(e.a)] && jumps[static_cast<size_t>(e.b)];
+          const Eigen::VectorXd w0 = w;
+          w.resize(nt);
+          for (Eigen::Index t = 0; t < nt; ++t) w(t) = w0(cut.parent[static_cast<size_t>(t)]);
+          measureTets();
+          r.targetVolume = weighted * (r.domainVolume / totalWeighted);
+          untangleOptions.targetVolumes = r.targetVolume;
+          if (!locks.empty()) untangleOptions.cubeLocks = locks;
+          r.param.splitEdges += static_cast<int>(cut.splits.size());
+          leftOver = countNonPositiveTets(untangled.U, mesh.T) + untangled.flippedBoundaryTriangles;
+          untangled.invertedAfter = leftOver - untangled.flippedBoundaryTriangles;
+          r.param.finishingRounds += finishingRounds(leftOver);
+        }
+        if (untangled.invertedAfter == 0 && untangled.flippedBoundaryTriangles == 0) return;
+        if (!beforeSplits || r.param.splitEdges == 0) return;
+        const BeforeSplits& b = *beforeSplits;  // (copied: the second attempt starts from it too)
+        r.mesh = b.mesh;
+        untangled = b.untangled;
+        r.ballU = b.ballU;
+        w = b.w, physical = b.physical, weighted = b.weighted;
+        r.targetVolume = b.targetVolume;
+        jumps = b.jumps, fixed = b.fixed, locks = b.locks;
         r.param.finishingRounds = b.finishingRounds;
         nv = mesh.numVertices(), nt = mesh.numTets();
         untangleOptions.targetVolumes = r.targetVolume;
         if (!locks.empty()) untangleOptions.cubeLocks = locks;
-        r.warnings.push_back("split " + std::to_string(r.param.splitEdges) +
+        undoneSplits += r.param.splitEdges;
+        r.param.splitEdges = 0;
+      };
+      splitRounds(false);
+      if (beforeSplits && (untangled.invertedAfter > 0 || untangled.flippedBoundaryTriangles > 0)) splitRounds(true);
+      if (undoneSplits > 0)
+        r.warnings.push_back("split " + std::to_string(undoneSplits) +
                              " edges of tets the final untangling left inverted, which did not repair them; the "
                              "splits were undone");
-        r.param.splitEdges = 0;
-      }
       if (r.param.splitEdges > 0)
         r.warnings.push_back("split " + std::to_string(r.param.splitEdges) +
                              " edges of tets the final untangling left inverted (param.split_edges): the "

@@ -17,6 +17,7 @@ class SpdSolver {
   /// Factorises the symmetric positive definite A; false if both solvers fail.
   bool compute(const Eigen::SparseMatrix<double>& A) {
     cholmod_ = std::make_unique<Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>>>();
+    cholmod_->cholmod().print = 0;  // library code prints nothing: a failure falls back, then reports
     cholmod_->compute(A);
     if (cholmod_->info() == Eigen::Success) {
       name_ = "cholmod";

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "test_data.h"
@@ -81,6 +82,27 @@ TEST(SpdSolver, RefactorizingTheSamePatternGivesTheBitsOfAFreshFactorisation) {
   ASSERT_TRUE(reused.refactorize(smaller));
   const Eigen::MatrixXd r = rhs.topRows(smaller.rows());
   EXPECT_LT((smaller * reused.solve(r) - r).norm(), 1e-8 * r.norm());
+}
+
+// A matrix that is not positive definite: CHOLMOD fails, the LDLT fallback
+// solves, and the library prints nothing (CHOLMOD's default is a warning line
+// per failed factorisation on the terminal: the morph printed dozens).
+TEST(SpdSolver, FallsBackSilentlyWhenTheMatrixIsNotPositiveDefinite) {
+  const TetMesh m = tetrahedralize(readSurface(t2stest::cgalMesh("blobby")), {}, "blobby");
+  const Eigen::SparseMatrix<double> A = -interiorBlock(m.V, m);  // negative definite
+  const Eigen::MatrixXd rhs = Eigen::MatrixXd::Random(A.rows(), 2);
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  detail::SpdSolver solver;
+  const bool ok = solver.compute(A);
+  const bool again = solver.refactorize(A);
+  const std::string out = testing::internal::GetCapturedStdout(), err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(out, "");
+  EXPECT_EQ(err, "");
+  ASSERT_TRUE(ok);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(solver.name(), "simplicial_ldlt (cholmod failed)");
+  EXPECT_LT((A * solver.solve(rhs) - rhs).norm(), 1e-8 * rhs.norm());
 }
 
 // Per-corner terms stored in another order of the vertices (the untangler
