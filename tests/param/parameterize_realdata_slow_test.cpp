@@ -185,34 +185,57 @@ INSTANTIATE_TEST_SUITE_P(Genus0, ParamMorphFallback,
                                   "_" + domainName(std::get<1>(info.param));
                          });
 
-// The last bits of the input must not decide whether the map is valid: spool
-// (creases of 90°, the mesh of the test data whose final untangling ends
-// with the fewest, most pinched tets) scaled by 1 + k·10⁻⁹ before meshing,
-// as a unit conversion would. Measured before the every-edge splits
-// (parameterize.cpp): k = 3 ended with 2 tets inverted after the longest-edge
-// splits and the morph (90 s); k = 1 and 2 were valid.
-class ParamLastBits : public ::testing::TestWithParam<int> {};
+// The last bits of the input must not decide whether the map is valid: a
+// surface scaled by 1 + k·10⁻⁹ before meshing, as a unit conversion would
+// scale it. spool (creases of 90°) on the cube, whose final untangling ends
+// with the fewest, most pinched tets, and hand's harmonic ball map alone
+// (no transport). Measured before the every-edge splits and the ball map's
+// splits (parameterize.cpp): spool at k = 3 ended with 2 tets inverted after
+// the longest-edge splits and the morph (90 s), hand at k = 1 with 2 (the
+// ball map had no splits); the others were valid.
+struct LastBitsCase {
+  const char* name;
+  ParamDomain domain;
+  bool transport;
+  int k;
+};
 
-TEST_P(ParamLastBits, SpoolScaledByOnePlusKNanoIsValidOnTheCube) {
-  const int k = GetParam();
-  SurfaceMesh surface = readSurface(t2stest::cgalMesh("spool"));
-  surface.V *= 1 + k * 1e-9;
+void PrintTo(const LastBitsCase& c, std::ostream* os) { *os << c.name << " k " << c.k; }
+
+class ParamLastBits : public ::testing::TestWithParam<LastBitsCase> {};
+
+TEST_P(ParamLastBits, ScaledByOnePlusKNanoIsValid) {
+  const LastBitsCase c = GetParam();
+  SurfaceMesh surface = readSurface(t2stest::cgalMesh(c.name));
+  surface.V *= 1 + c.k * 1e-9;
   TetrahedralizeOptions meshing;
   meshing.exactBoundary = false;  // (as the command line meshes)
-  const TetMesh mesh = tetrahedralize(surface, meshing, "spool");
+  const TetMesh mesh = tetrahedralize(surface, meshing, c.name);
   ParamOptions o;
-  o.domain = ParamDomain::Cube;
+  o.domain = c.domain;
+  o.transport = c.transport;
   const ParamResult r = parameterize(mesh, o);
-  ASSERT_TRUE(r.status.ok) << "k " << k << ": " << r.status.message;
-  t2stest::expectValidParameterization(r, ParamDomain::Cube);
-  EXPECT_GT(r.parametricVolume.minCoeff(), 0) << k;
-  std::cout << "spool x (1 + " << k << "e-9): split edges " << r.param.splitEdges << (r.param.morphed ? ", morph" : "")
-            << ", volume ratio p1/p50/p99 " << r.param.volumeRatio.p1 << "/" << r.param.volumeRatio.p50 << "/"
-            << r.param.volumeRatio.p99 << "; seconds final untangle " << r.timings.finalUntangle << " total "
+  ASSERT_TRUE(r.status.ok) << c.name << " k " << c.k << ": " << r.status.message;
+  t2stest::expectValidParameterization(r, c.domain);
+  EXPECT_GT(r.parametricVolume.minCoeff(), 0) << c.name;
+  EXPECT_EQ(r.mesh.numVertices(), r.U.rows());
+  EXPECT_EQ(countNonPositiveTets(r.mesh.V, r.mesh.T), 0) << c.name;  // (the splits keep the input's tets valid)
+  std::cout << c.name << " x (1 + " << c.k << "e-9) " << domainName(c.domain) << (c.transport ? "" : " (no transport)")
+            << ": split edges " << r.param.splitEdges << (r.param.morphed ? ", morph" : "") << ", volume ratio p1/p50/p99 "
+            << r.param.volumeRatio.p1 << "/" << r.param.volumeRatio.p50 << "/" << r.param.volumeRatio.p99 << "; seconds "
             << r.timings.total << std::endl;
 }
 
-INSTANTIATE_TEST_SUITE_P(Spool, ParamLastBits, ::testing::Values(1, 2, 3));
+INSTANTIATE_TEST_SUITE_P(Genus0, ParamLastBits,
+                         ::testing::Values(LastBitsCase{"spool", ParamDomain::Cube, true, 1},
+                                           LastBitsCase{"spool", ParamDomain::Cube, true, 2},
+                                           LastBitsCase{"spool", ParamDomain::Cube, true, 3},
+                                           LastBitsCase{"hand", ParamDomain::Ball, false, 1},
+                                           LastBitsCase{"hand", ParamDomain::Ball, false, 2}),
+                         [](const auto& info) {
+                           return t2stest::testName(info.param.name) + "_" + domainName(info.param.domain) +
+                                  (info.param.transport ? "" : "_harmonic") + "_k" + std::to_string(info.param.k);
+                         });
 
 // The rule of ParamOptions::CubeSites::Auto on the boundaries the command
 // line meshes: the smooth, curved meshes of the test data (bunny00,
