@@ -702,7 +702,8 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
     // scaled by 1 + 10⁻⁹ (`param --domain ball --no-transport`) ended with
     // 2 tets inverted; its scales by 1 + 2, 3, 4·10⁻⁹ were valid.
     if (!options.transport && !ball.status.ok && onlyInversionsLeft && ball.ball.invertedTets <= kMaxSplitTets &&
-        options.ballMap.untangleMap && options.untangle.localRepairSweeps > 0) {
+        ballOptions.untangleMap && ballOptions.untangle.localRepairSweeps > 0) {
+      const auto splitStart = Clock::now();
       for (const bool everyEdge : {false, true}) {
         TetMesh refined = r.mesh;
         Eigen::MatrixX3d U = ball.U;
@@ -744,6 +745,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
                              "parameterized mesh has that many more vertices than the input");
         break;
       }
+      r.timings.untangle += secondsSince(splitStart);
     }
     if (!ball.status.ok && !(options.transport && onlyInversionsLeft)) throw Status::failure(ball.status.message);
     if (!ball.status.ok)
