@@ -528,7 +528,9 @@ constexpr int kSplitRounds = 3;
 // boundary edge or a chord: its new vertex would have to lie on ∂Ω), without
 // repeats.
 std::vector<std::pair<int, int>> edgesToSplit(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T,
-                                              const std::vector<char>& onBoundary, bool everyEdge) {
+                                              const Eigen::VectorXi& boundaryVertices, bool everyEdge) {
+  std::vector<char> onBoundary(static_cast<size_t>(U.rows()), 0);
+  for (Eigen::Index k = 0; k < boundaryVertices.size(); ++k) onBoundary[static_cast<size_t>(boundaryVertices(k))] = 1;
   std::vector<std::pair<int, int>> edges;
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
     std::array<Eigen::Vector3d, 4> p;
@@ -549,6 +551,12 @@ std::vector<std::pair<int, int>> edgesToSplit(const Eigen::MatrixX3d& U, const E
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   return edges;
+}
+
+// X (per vertex) grown to the split mesh: each new vertex where its split put it.
+void growBySplits(Eigen::MatrixX3d& X, const EdgeSplits& cut, Eigen::Index vertices) {
+  X.conservativeResize(vertices, 3);
+  for (const EdgeSplit& e : cut.splits) X.row(e.vertex) = (1 - e.t) * X.row(e.a) + e.t * X.row(e.b);
 }
 // Cells per direction of ParamResult::Figures::misplacedVolume: 8³, the
 // scale of the spline's elements at the fit's default of 8 to 16.
@@ -710,13 +718,9 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         int splits = 0;
         bool bijective = false;
         for (int round = 0; round < kSplitRounds && !bijective; ++round) {
-          std::vector<char> onBoundary(static_cast<size_t>(refined.numVertices()), 0);
-          for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k)
-            onBoundary[static_cast<size_t>(r.boundaryVertices(k))] = 1;
-          const EdgeSplits cut = splitEdges(refined, edgesToSplit(U, refined.T, onBoundary, everyEdge));
+          const EdgeSplits cut = splitEdges(refined, edgesToSplit(U, refined.T, r.boundaryVertices, everyEdge));
           if (cut.splits.empty()) break;
-          U.conservativeResize(refined.numVertices(), 3);
-          for (const EdgeSplit& e : cut.splits) U.row(e.vertex) = (1 - e.t) * U.row(e.a) + e.t * U.row(e.b);
+          growBySplits(U, cut, refined.numVertices());
           splits += static_cast<int>(cut.splits.size());
           UntangleOptions slide = ballOptions.untangle;
           slide.sphereFaces = r.boundaryFaces;
@@ -730,7 +734,6 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
         if (!bijective) continue;
         r.mesh = std::move(refined);
         nv = mesh.numVertices(), nt = mesh.numTets();
-        ball.U = U;
         r.ballU = std::move(U);
         ball.ball.invertedTets = 0;
         ball.status = Status{};
@@ -1034,18 +1037,12 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       int undoneSplits = 0;
       auto splitRounds = [&](bool everyEdge) {
         for (int splitRound = 0; splitRound < kSplitRounds && fewTetsLeft(); ++splitRound) {
-          std::vector<char> onBoundary(static_cast<size_t>(nv), 0);
-          for (Eigen::Index k = 0; k < r.boundaryVertices.size(); ++k) onBoundary[static_cast<size_t>(r.boundaryVertices(k))] = 1;
-          const EdgeSplits cut = splitEdges(r.mesh, edgesToSplit(untangled.U, mesh.T, onBoundary, everyEdge));
+          const EdgeSplits cut = splitEdges(r.mesh, edgesToSplit(untangled.U, mesh.T, r.boundaryVertices, everyEdge));
           if (cut.splits.empty()) break;
           nv = mesh.numVertices(), nt = mesh.numTets();
           // Every per-vertex and per-tet array follows the mesh.
-          auto grow = [&](Eigen::MatrixX3d& X) {
-            X.conservativeResize(nv, 3);
-            for (const EdgeSplit& e : cut.splits) X.row(e.vertex) = (1 - e.t) * X.row(e.a) + e.t * X.row(e.b);
-          };
-          grow(untangled.U);
-          grow(r.ballU);
+          growBySplits(untangled.U, cut, nv);
+          growBySplits(r.ballU, cut, nv);
           fixed.resize(static_cast<size_t>(nv), false);
           if (!locks.empty()) locks.resize(static_cast<size_t>(nv), 0);
           jumps.resize(static_cast<size_t>(nv), 0);
