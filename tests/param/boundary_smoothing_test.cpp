@@ -7,7 +7,9 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
+#include <tbb/global_control.h>
 
 #include "cube_param_meshes.h"
 #include "test_data.h"
@@ -302,6 +304,18 @@ TEST_P(BoundarySmoothingReal, KeepsTheMapValidAndTheBoundaryOnTheDomain) {
               q0[n * 99 / 100], q1[n * 99 / 100]);
   EXPECT_LE(m1, m0 * (1 + 1e-12));
   EXPECT_LT(m1, 0.98 * m0);  // and it does fall
+  // The vertices of a colour move together on the cores: on one thread the
+  // result must be the same bits.
+  BoundarySmoothingResult single;
+  {
+    tbb::global_control oneThread(tbb::global_control::max_allowed_parallelism, 1);
+    single = smoothBoundary(p.mesh.V, p.mesh.T, p.U, p.boundaryFaces, so);
+  }
+  EXPECT_EQ(single.moves, r.moves);
+  EXPECT_EQ(single.interiorMoves, r.interiorMoves);
+  EXPECT_EQ(single.refused, r.refused);
+  for (Eigen::Index i = 0; i < r.U.size(); ++i)
+    ASSERT_EQ(std::memcmp(&single.U.data()[i], &r.U.data()[i], sizeof(double)), 0) << "coordinate " << i;
 }
 
 INSTANTIATE_TEST_SUITE_P(TestData, BoundarySmoothingReal,
