@@ -389,6 +389,7 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
     for (Eigen::Index t = r.begin(); t != r.end(); ++t) inverted[static_cast<size_t>(t)] = !positive(t);
   });
   std::vector<int> movedVerts;
+  std::vector<int> sweepColour(static_cast<size_t>(W.rows()), -1);
   for (int sweep = 0; sweep < maxSweeps; ++sweep) {
     for (int v : movedVerts)
       for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e) {
@@ -419,8 +420,39 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
     std::vector<int> verts;
     for (Eigen::Index v = 0; v < W.rows(); ++v)
       if (mark[static_cast<size_t>(v)] && movable[static_cast<size_t>(v)]) verts.push_back(static_cast<int>(v));
-    int movedNow = 0;
-    for (int v : verts) {
+    // The sweep's vertices by colour (greedy in their order; no two of a
+    // tet alike): a move reads and changes only its own star, so the
+    // vertices of one colour move at once on both cores, and the result
+    // does not depend on the threads. Measured on bunny00's cube map (the
+    // final untangling's first local repair, 930 -> 86 tets): 3.1 s on one
+    // core in the vertices' order.
+    std::vector<std::vector<int>> colourClasses;
+    {
+      std::vector<int>& colour = sweepColour;
+      for (int v : verts) colour[static_cast<size_t>(v)] = -1;
+      std::vector<char> taken;
+      for (int v : verts) {
+        taken.assign(taken.size(), 0);
+        for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e) {
+          const int t = vt.corner[static_cast<size_t>(e)] / 4;
+          for (int k = 0; k < 4; ++k) {
+            const int u = T(t, k);
+            if (u == v || !mark[static_cast<size_t>(u)] || !movable[static_cast<size_t>(u)]) continue;
+            const int c = colour[static_cast<size_t>(u)];
+            if (c < 0) continue;
+            if (static_cast<size_t>(c) >= taken.size()) taken.resize(static_cast<size_t>(c) + 1, 0);
+            taken[static_cast<size_t>(c)] = 1;
+          }
+        }
+        const int c = static_cast<int>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
+        colour[static_cast<size_t>(v)] = c;
+        if (static_cast<size_t>(c) >= colourClasses.size()) colourClasses.resize(static_cast<size_t>(c) + 1);
+        colourClasses[static_cast<size_t>(c)].push_back(v);
+      }
+      for (int v : verts) colour[static_cast<size_t>(v)] = -1;
+    }
+    std::vector<char> movedFlag(W.rows(), 0);
+    auto tryMove = [&](int v) {
       const std::uint8_t bits = movable[static_cast<size_t>(v)];
       const int first = vt.offset[static_cast<size_t>(v)], last = vt.offset[static_cast<size_t>(v) + 1];
       const Eigen::Vector3d p0 = W.row(v);
@@ -451,12 +483,12 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
         a(row, i) = 1, b(row) = moves.below(i), ++row;
         a(row, i) = -1, b(row) = moves.above(i), ++row;
       }
-      if (!inside || nd == 0 || !(worst < 1)) continue;
-      if (rings > 0 && worst > 0.5) continue;  // a well-shaped star around: leave it
+      if (!inside || nd == 0 || !(worst < 1)) return;
+      if (rings > 0 && worst > 0.5) return;  // a well-shaped star around: leave it
       Eigen::VectorXd z = Eigen::VectorXd::Zero(nd + 1);
       z(nd) = worst - 1;
       z = maxMinBarrier(a, b, z);
-      if (!(z(nd) > worst)) continue;
+      if (!(z(nd) > worst)) return;
       auto starWorst = [&] {
         double least = std::numeric_limits<double>::infinity();
         for (int e = first; e < last; ++e) {
@@ -470,13 +502,16 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
         W.row(v) = movedTo(p0, moves, z.head(nd), std::ldexp(1.0, -halving)).transpose();
         better = starWorst() > worst;
       }
-      if (better) {
-        ++movedNow;
-        movedVerts.push_back(v);
-      } else {
-        W.row(v) = p0.transpose();
-      }
-    }
+      if (better) movedFlag[static_cast<size_t>(v)] = 1;
+      else W.row(v) = p0.transpose();
+    };
+    for (const std::vector<int>& cls : colourClasses)
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, cls.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t q = r.begin(); q != r.end(); ++q) tryMove(cls[q]);
+      });
+    int movedNow = 0;
+    for (int v : verts)
+      if (movedFlag[static_cast<size_t>(v)]) ++movedNow, movedVerts.push_back(v);
     moved += movedNow;
     if (movedNow == 0 && rings >= 4) break;
     if (movedNow == 0) ++rings, stalled = 0;

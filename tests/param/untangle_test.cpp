@@ -6,8 +6,10 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <random>
+#include <tbb/global_control.h>
 
 #include "ball_test_meshes.h"
 #include "tet2spline/param/topology.h"
@@ -629,6 +631,37 @@ TEST(UntangleLocalRepair, MaxMinMovesRepairInteriorVertices) {
     if (fixed[v]) {
       EXPECT_EQ(r.U.row(v), U.row(v));
     }
+}
+
+// A sweep moves the vertices of one colour (no two of a tet) at once on the
+// cores: on one thread the repair must give the same bits. Many vertices
+// pushed through their neighbours, so that the colours hold many each.
+TEST(UntangleLocalRepair, MaxMinMovesGiveTheSameBitsOnOneThread) {
+  const TetMesh m = t2stest::cubeGrid(14);
+  const auto fixed = boundaryMask(m);
+  Eigen::MatrixX3d U = m.V;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> jitter(-0.08, 0.08);  // cell size 1/7
+  for (Eigen::Index v = 0; v < U.rows(); ++v)
+    if (!fixed[v] && v % 3 == 0)
+      for (int d = 0; d < 3; ++d) U(v, d) += jitter(rng);
+  const int before = countNonPositiveTets(U, m.T);
+  ASSERT_GT(before, 200);
+  UntangleOptions o;
+  o.maxOuterIterations = 0;
+  o.localRepairSweeps = 20;
+  o.localRepairFraction = 1;
+  const UntangleResult r = untangle(m.V, m.T, U, fixed, o);
+  UntangleResult single;
+  {
+    tbb::global_control oneThread(tbb::global_control::max_allowed_parallelism, 1);
+    single = untangle(m.V, m.T, U, fixed, o);
+  }
+  EXPECT_LT(r.invertedAfter, before / 4);
+  EXPECT_EQ(single.invertedAfter, r.invertedAfter);
+  ASSERT_EQ(single.U.rows(), r.U.rows());
+  for (Eigen::Index i = 0; i < r.U.size(); ++i)
+    ASSERT_EQ(std::memcmp(&single.U.data()[i], &r.U.data()[i], sizeof(double)), 0) << "coordinate " << i;
 }
 
 // On the cube, face vertices move only within their face: the locked

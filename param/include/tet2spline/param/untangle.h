@@ -137,7 +137,9 @@ struct UntangleOptions {
   bool relax = false;
   /// When the energy leaves inversions: sweeps of local max-min moves over
   /// the vertices of inverted tets (see untangle.cpp, maxMinSweeps); 0 = none.
-  /// Interior and cube-face vertices move first; with sphereFaces, a second
+  /// A sweep moves its vertices colour by colour (no two vertices of a tet
+  /// alike), each colour's at once on all cores; the result does not depend
+  /// on the threads. Interior and cube-face vertices move first; with sphereFaces, a second
   /// pass over what that leaves moves the sliding sphere vertices too
   /// (along the tangent plane, projected back onto the sphere). Then, with
   /// localRepairPatches (off by default; parameterize turns it on for the
