@@ -8,7 +8,9 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <boost/math/tools/minima.hpp>
 #include <cmath>
+#include <cstdint>
 #include <complex>
 #include <limits>
 #include <numeric>
@@ -478,18 +480,20 @@ AreaCorrection correctAreas(Eigen::MatrixX3d& U, const Eigen::MatrixX3d& V, cons
     for (int k = 0; k < 3; ++k) corners.row(k) = z.row(fixed[static_cast<size_t>(k)]);
     const Eigen::MatrixXd next = solver.solve(L, fixed, corners);
     if (next.size() == 0 || !next.allFinite()) return {};
-    // The plane's scale: golden-section search on log λ.
+    // The plane's scale: Brent's minimisation (parabolic steps, golden
+    // section where they fail) on log λ in [−4, 4], to within about 6·10⁻⁵
+    // (15 bits), as fine as the golden-section search it replaces (26
+    // divergences per step, to 7.6·10⁻⁵). Measured: 8 or 9 divergences per
+    // step; on blob-closed's 30 steps the two searches' log λ agree to
+    // 3·10⁻⁵ and their divergences to 10⁻¹⁰ (relative); bunny00's
+    // spherical map (`param` on its TetGen mesh) 9.5 -> 7.7 s, and again
+    // when it landed (every map's last bits change): 10.45 -> 9.01 s.
     auto divergenceAt = [&](double logScale) {
       return areaDivergence(areaShareRatios(toSphere(next * std::exp(logScale)), F, share, p), share);
     };
-    double lo = -4, hi = 4;
-    const double g = 0.5 * (std::sqrt(5.0) - 1);
-    double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo), f1 = divergenceAt(x1), f2 = divergenceAt(x2);
-    for (int k = 0; k < 24; ++k) {
-      if (f1 <= f2) hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = divergenceAt(x1);
-      else lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = divergenceAt(x2);
-    }
-    return Eigen::MatrixX3d(toSphere(next * std::exp(0.5 * (lo + hi))));
+    std::uintmax_t evaluations = 50;
+    const double logScale = boost::math::tools::brent_find_minima(divergenceAt, -4.0, 4.0, 15, evaluations).first;
+    return Eigen::MatrixX3d(toSphere(next * std::exp(logScale)));
   };
   Eigen::VectorXd soft = Eigen::VectorXd::Ones(nf);
   Eigen::MatrixXd z = toPlane(U);
