@@ -1,6 +1,6 @@
 // The untangler's L-BFGS (param/src/lbfgs.h) keeps its history in a ring
-// allocated once and runs its element-wise updates on both cores above
-// 65536 unknowns. Its iterates must be bitwise those of the plain two-loop
+// allocated once and runs its element-wise updates and its dot products
+// (in fixed chunks, added in order) on both cores above 65536 unknowns. Its iterates must be bitwise those of the plain two-loop
 // recursion on Eigen temporaries that it replaced (kept below as the
 // reference): the untangler's maps depend chaotically on the last bits.
 // Checked on a spring energy over a real mesh's edges (serial updates) and
@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <deque>
@@ -26,7 +27,29 @@ using namespace tet2spline;
 
 namespace {
 
-// The recursion as it was before the ring (same operations, Eigen temporaries).
+// The dot products as the ring's are defined (parallelDot): Eigen's below
+// 65536 elements, else Eigen's over chunks of 16384 added in order, here
+// in one thread.
+double chunkedDot(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  const Eigen::Index n = a.size(), chunk = 1 << 14;
+  if (n < (1 << 16)) return a.dot(b);
+  double sum = 0;
+  for (Eigen::Index begin = 0; begin < n; begin += chunk) {
+    const Eigen::Index size = std::min(chunk, n - begin);
+    sum += a.segment(begin, size).dot(b.segment(begin, size));
+  }
+  return sum;
+}
+double chunkedSquaredNorm(const Eigen::VectorXd& a) {
+  const Eigen::Index n = a.size(), chunk = 1 << 14;
+  if (n < (1 << 16)) return a.squaredNorm();
+  double sum = 0;
+  for (Eigen::Index begin = 0; begin < n; begin += chunk) sum += a.segment(begin, std::min(chunk, n - begin)).squaredNorm();
+  return sum;
+}
+
+// The recursion as it was before the ring (same operations, Eigen
+// temporaries; the dot products chunked as above).
 template <class FunGrad>
 int referenceLbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
   Eigen::VectorXd g(x.size()), gNew(x.size()), xNew(x.size());
@@ -35,21 +58,22 @@ int referenceLbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
   std::deque<double> rho;
   int it = 0;
   for (; it < maxIter; ++it) {
-    if (!(g.squaredNorm() > 0)) break;
+    if (!(chunkedSquaredNorm(g) > 0)) break;
     Eigen::VectorXd d = -g;
     std::vector<double> alpha(S.size());
     for (int k = static_cast<int>(S.size()) - 1; k >= 0; --k) {
-      alpha[k] = rho[k] * S[k].dot(d);
+      alpha[k] = rho[k] * chunkedDot(S[k], d);
       d -= alpha[k] * Y[k];
     }
-    double gamma = S.empty() ? 1.0 / std::max(g.norm(), 1e-300) : S.back().dot(Y.back()) / Y.back().squaredNorm();
+    double gamma = S.empty() ? 1.0 / std::max(std::sqrt(chunkedSquaredNorm(g)), 1e-300)
+                             : chunkedDot(S.back(), Y.back()) / chunkedSquaredNorm(Y.back());
     d *= gamma;
-    for (size_t k = 0; k < S.size(); ++k) d += S[k] * (alpha[k] - rho[k] * Y[k].dot(d));
-    double slope = g.dot(d);
+    for (size_t k = 0; k < S.size(); ++k) d += S[k] * (alpha[k] - rho[k] * chunkedDot(Y[k], d));
+    double slope = chunkedDot(g, d);
     if (!(slope < 0)) {
       S.clear(), Y.clear(), rho.clear();
-      d = -g / std::max(g.norm(), 1e-300);
-      slope = g.dot(d);
+      d = -g / std::max(std::sqrt(chunkedSquaredNorm(g)), 1e-300);
+      slope = chunkedDot(g, d);
     }
     double step = 1, fNew = 0;
     bool accepted = false;
@@ -67,12 +91,12 @@ int referenceLbfgs(FunGrad&& fg, Eigen::VectorXd& x, int maxIter, int memory) {
       continue;
     }
     const Eigen::VectorXd s = xNew - x, y = gNew - g;
-    const double sy = s.dot(y);
+    const double sy = chunkedDot(s, y);
     x.swap(xNew);
     g.swap(gNew);
     const double decrease = f - fNew;
     f = fNew;
-    if (sy > 1e-12 * s.norm() * y.norm()) {
+    if (sy > 1e-12 * std::sqrt(chunkedSquaredNorm(s)) * std::sqrt(chunkedSquaredNorm(y))) {
       S.push_back(s), Y.push_back(y), rho.push_back(1 / sy);
       if (static_cast<int>(S.size()) > memory) S.pop_front(), Y.pop_front(), rho.pop_front();
     }
