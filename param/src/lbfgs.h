@@ -27,40 +27,38 @@ inline void forEachElement(Eigen::Index n, const Body& body) {
   });
 }
 
-// a · b: Eigen's dot when n is small (its bits), else Eigen's dot over fixed
-// chunks of kChunk elements on both cores, the chunks' sums then added in
-// order: the same bits whatever the threads. (In one thread, the 2m + 7
-// dot products and norms of each iteration were a serial stretch: on
-// bunny00's final untangling, 366k unknowns, memory 10, about 27 passes
-// over two vectors per iteration while the other core waited.)
-inline double parallelDot(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-  constexpr Eigen::Index kSerialBelow = 1 << 16, kChunk = 1 << 14;
-  const Eigen::Index n = a.size();
-  if (n < kSerialBelow) return a.dot(b);
+// Σ over fixed chunks of kChunk elements of part(begin, size), the chunks
+// on both cores and their values then added in order: the same bits
+// whatever the threads.
+template <class Part>
+inline double chunkedSum(Eigen::Index n, const Part& part) {
+  constexpr Eigen::Index kChunk = 1 << 14;
   const Eigen::Index chunks = (n + kChunk - 1) / kChunk;
-  std::vector<double> part(static_cast<size_t>(chunks));
+  std::vector<double> value(static_cast<size_t>(chunks));
   tbb::parallel_for(Eigen::Index(0), chunks, [&](Eigen::Index c) {
-    const Eigen::Index begin = c * kChunk, size = std::min(kChunk, n - begin);
-    part[static_cast<size_t>(c)] = a.segment(begin, size).dot(b.segment(begin, size));
+    const Eigen::Index begin = c * kChunk;
+    value[static_cast<size_t>(c)] = part(begin, std::min(kChunk, n - begin));
   });
   double sum = 0;
-  for (double p : part) sum += p;
+  for (double v : value) sum += v;
   return sum;
 }
-// |a|², as parallelDot (below 65536 elements Eigen's squaredNorm, its bits).
-inline double parallelSquaredNorm(const Eigen::VectorXd& a) {
-  constexpr Eigen::Index kSerialBelow = 1 << 16, kChunk = 1 << 14;
-  const Eigen::Index n = a.size();
-  if (n < kSerialBelow) return a.squaredNorm();
-  const Eigen::Index chunks = (n + kChunk - 1) / kChunk;
-  std::vector<double> part(static_cast<size_t>(chunks));
-  tbb::parallel_for(Eigen::Index(0), chunks, [&](Eigen::Index c) {
-    const Eigen::Index begin = c * kChunk, size = std::min(kChunk, n - begin);
-    part[static_cast<size_t>(c)] = a.segment(begin, size).squaredNorm();
+
+// a · b and |a|²: Eigen's when the vectors are short (their bits), else
+// chunkedSum of Eigen's over the chunks. (In one thread, the 2m + 7 dot
+// products and norms of each iteration were a serial stretch: on bunny00's
+// final untangling, 366k unknowns, memory 10, about 27 passes over two
+// vectors per iteration while the other core waited.)
+constexpr Eigen::Index kParallelDotFrom = 1 << 16;
+inline double parallelDot(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  if (a.size() < kParallelDotFrom) return a.dot(b);
+  return chunkedSum(a.size(), [&](Eigen::Index begin, Eigen::Index size) {
+    return a.segment(begin, size).dot(b.segment(begin, size));
   });
-  double sum = 0;
-  for (double p : part) sum += p;
-  return sum;
+}
+inline double parallelSquaredNorm(const Eigen::VectorXd& a) {
+  if (a.size() < kParallelDotFrom) return a.squaredNorm();
+  return chunkedSum(a.size(), [&](Eigen::Index begin, Eigen::Index size) { return a.segment(begin, size).squaredNorm(); });
 }
 
 // Minimises f with L-BFGS and Armijo backtracking; returns iterations used.

@@ -599,6 +599,21 @@ TEST_P(UntangleMethods, BoundarySlidesOnTheSphereAndNothingFlips) {
 
 // ---- Local max-min repair (the last resort after the energy) ----
 
+// A cube grid's positions with every `every`-th interior vertex pushed by up
+// to `amplitude` in each coordinate (seeded); returns how many moved.
+int pushInteriorVertices(Eigen::MatrixX3d& U, const std::vector<bool>& fixed, unsigned seed, double amplitude,
+                         int every) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(-amplitude, amplitude);
+  int pushed = 0;
+  for (Eigen::Index v = 0; v < U.rows(); ++v)
+    if (!fixed[v] && v % every == 0) {
+      for (int d = 0; d < 3; ++d) U(v, d) += jitter(rng);
+      ++pushed;
+    }
+  return pushed;
+}
+
 // With the energy switched off (no ε rounds), the local max-min moves alone
 // repair interior vertices pushed through their neighbours; without them the
 // same input stays tangled. Fixed vertices keep their bits.
@@ -606,14 +621,7 @@ TEST(UntangleLocalRepair, MaxMinMovesRepairInteriorVertices) {
   const TetMesh m = t2stest::cubeGrid(6);
   const auto fixed = boundaryMask(m);
   Eigen::MatrixX3d U = m.V;
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> jitter(-0.25, 0.25);  // cell size 1/3
-  int pushed = 0;
-  for (Eigen::Index v = 0; v < U.rows(); ++v)
-    if (!fixed[v] && v % 5 == 0) {
-      for (int d = 0; d < 3; ++d) U(v, d) += jitter(rng);
-      ++pushed;
-    }
+  const int pushed = pushInteriorVertices(U, fixed, 5, 0.25, 5);  // (cell size 1/3)
   const int before = countNonPositiveTets(U, m.T);
   ASSERT_GT(pushed, 5);
   ASSERT_GT(before, 10);
@@ -640,11 +648,7 @@ TEST(UntangleLocalRepair, MaxMinMovesGiveTheSameBitsOnOneThread) {
   const TetMesh m = t2stest::cubeGrid(14);
   const auto fixed = boundaryMask(m);
   Eigen::MatrixX3d U = m.V;
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> jitter(-0.08, 0.08);  // cell size 1/7
-  for (Eigen::Index v = 0; v < U.rows(); ++v)
-    if (!fixed[v] && v % 3 == 0)
-      for (int d = 0; d < 3; ++d) U(v, d) += jitter(rng);
+  pushInteriorVertices(U, fixed, 7, 0.08, 3);  // (cell size 1/7)
   const int before = countNonPositiveTets(U, m.T);
   ASSERT_GT(before, 200);
   UntangleOptions o;
