@@ -3,12 +3,14 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <string>
 #include <atomic>
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "colouring.h"
 #include "spd_solver.h"
 #include "tet2spline/param/error.h"
 #include "tet2spline/param/topology.h"
@@ -218,21 +220,11 @@ BoundarySmoothingResult smoothBoundary(const Eigen::MatrixX3d& X, const Eigen::M
   // 2 boundary and 4 interior sweeps, 2.7 s.)
   std::vector<std::vector<int>> colourClasses;
   {
-    std::vector<int> colour(static_cast<size_t>(nv), -1);
-    std::vector<char> taken;
-    for (Eigen::Index iv = 0; iv < nv; ++iv) {
-      taken.assign(taken.size(), 0);
-      for (int j : neighbours[static_cast<size_t>(iv)])
-        if (colour[static_cast<size_t>(j)] >= 0) {
-          const auto c = static_cast<size_t>(colour[static_cast<size_t>(j)]);
-          if (c >= taken.size()) taken.resize(c + 1, 0);
-          taken[c] = 1;
-        }
-      const int c = static_cast<int>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
-      colour[static_cast<size_t>(iv)] = c;
-      if (static_cast<size_t>(c) >= colourClasses.size()) colourClasses.resize(static_cast<size_t>(c) + 1);
-      colourClasses[static_cast<size_t>(c)].push_back(static_cast<int>(iv));
-    }
+    std::vector<int> all(static_cast<size_t>(nv)), colour(static_cast<size_t>(nv), -1);
+    std::iota(all.begin(), all.end(), 0);
+    colourClasses = detail::greedyColourClasses(all, colour, [&](int v, const auto& visit) {
+      for (int u : neighbours[static_cast<size_t>(v)]) visit(u);
+    });
   }
   // Runs move(i) for every vertex of `which`, colour by colour.
   auto sweepByColour = [&](const std::vector<char>& which, const auto& move) {

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "block_hessian.h"
+#include "colouring.h"
 #include "lbfgs.h"
 #include "max_min_barrier.h"
 #include "sliding.h"
@@ -426,31 +427,16 @@ int maxMinSweeps(Eigen::MatrixX3d& W, const Eigen::MatrixX4i& T, const detail::V
     // does not depend on the threads. Measured on bunny00's cube map (the
     // final untangling's first local repair, 930 -> 86 tets): 3.1 s on one
     // core in the vertices' order.
-    std::vector<std::vector<int>> colourClasses;
-    {
-      std::vector<int>& colour = sweepColour;
-      for (int v : verts) colour[static_cast<size_t>(v)] = -1;
-      std::vector<char> taken;
-      for (int v : verts) {
-        taken.assign(taken.size(), 0);
-        for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e) {
-          const int t = vt.corner[static_cast<size_t>(e)] / 4;
-          for (int k = 0; k < 4; ++k) {
-            const int u = T(t, k);
-            if (u == v || !mark[static_cast<size_t>(u)] || !movable[static_cast<size_t>(u)]) continue;
-            const int c = colour[static_cast<size_t>(u)];
-            if (c < 0) continue;
-            if (static_cast<size_t>(c) >= taken.size()) taken.resize(static_cast<size_t>(c) + 1, 0);
-            taken[static_cast<size_t>(c)] = 1;
+    const std::vector<std::vector<int>> colourClasses =
+        detail::greedyColourClasses(verts, sweepColour, [&](int v, const auto& visit) {
+          for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e) {
+            const int t = vt.corner[static_cast<size_t>(e)] / 4;
+            for (int k = 0; k < 4; ++k) {
+              const int u = T(t, k);
+              if (u != v && mark[static_cast<size_t>(u)] && movable[static_cast<size_t>(u)]) visit(u);
+            }
           }
-        }
-        const int c = static_cast<int>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
-        colour[static_cast<size_t>(v)] = c;
-        if (static_cast<size_t>(c) >= colourClasses.size()) colourClasses.resize(static_cast<size_t>(c) + 1);
-        colourClasses[static_cast<size_t>(c)].push_back(v);
-      }
-      for (int v : verts) colour[static_cast<size_t>(v)] = -1;
-    }
+        });
     std::vector<char> movedFlag(W.rows(), 0);
     auto tryMove = [&](int v) {
       const std::uint8_t bits = movable[static_cast<size_t>(v)];
