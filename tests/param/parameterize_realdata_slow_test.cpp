@@ -206,11 +206,7 @@ class ParamLastBits : public ::testing::TestWithParam<LastBitsCase> {};
 
 TEST_P(ParamLastBits, ScaledByOnePlusKNanoIsValid) {
   const LastBitsCase c = GetParam();
-  SurfaceMesh surface = readSurface(t2stest::cgalMesh(c.name));
-  surface.V *= 1 + c.k * 1e-9;
-  TetrahedralizeOptions meshing;
-  meshing.exactBoundary = false;  // (as the command line meshes)
-  const TetMesh mesh = tetrahedralize(surface, meshing, c.name);
+  const TetMesh mesh = t2stest::cliMeshedCgalSurface(c.name, 1 + c.k * 1e-9);
   ParamOptions o;
   o.domain = c.domain;
   o.transport = c.transport;
