@@ -522,6 +522,12 @@ constexpr int kFinishingRounds = 8;
 // tets, and this many splits.
 constexpr int kMaxSplitTets = 64;
 constexpr int kSplitRounds = 3;
+// ε rounds without a new fewest that end a region of the final untangling
+// once at most kMaxSplitTets are left (UntangleOptions::regionStallRounds).
+// Not in the ball map's untangling: there it changed the sites, hence the
+// transport, of triceratops, spool and hand (hand's morph then ended 3.25
+// target edges from the transport's map instead of 0.60).
+constexpr int kRegionStallRounds = 4;
 
 // The longest edge in U of every tet that is not positive in U, or with
 // `everyEdge` all six, except edges with both ends on the boundary (a
@@ -889,6 +895,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // the finishing rounds and the edge splits below take them (see
       // UntangleOptions::stallBelow).
       untangleOptions.stallBelow = kMaxSplitTets;
+      if (untangleOptions.regionStallRounds == 0) untangleOptions.regionStallRounds = kRegionStallRounds;
       untangleOptions.progress = [&](double, const std::string& m) {
         return !options.progress || options.progress(-1, "final " + m);
       };
