@@ -11,6 +11,7 @@
 #include <chrono>
 #include <sstream>
 
+#include "harmonic_system.h"
 #include "spd_solver.h"
 
 namespace tet2spline {
@@ -114,90 +115,110 @@ Eigen::SparseMatrix<double> cotangentStiffness(const Eigen::MatrixX3d& V, const 
   return L;
 }
 
-HarmonicMapResult harmonicMap(const Eigen::MatrixX3d& V, const Eigen::MatrixX4i& T,
-                              const Eigen::VectorXi& fixedVertices, const Eigen::MatrixX3d& fixedPositions,
-                              const HarmonicMapOptions& options) {
-  const Eigen::Index nv = V.rows();
-  if (fixedPositions.rows() != fixedVertices.size())
-    throw Error(ErrorKind::Input, "harmonicMap: " + std::to_string(fixedVertices.size()) +
-                                      " fixed vertices but " + std::to_string(fixedPositions.rows()) +
-                                      " fixed positions");
-  std::vector<int> freeIndex(static_cast<size_t>(nv), 0);  // −1 fixed, else index among free vertices
+namespace detail {
+
+HarmonicSystem::HarmonicSystem(const Eigen::MatrixX3d& V, const Eigen::MatrixX4i& T, const Eigen::VectorXi& fixedVertices,
+                               const HarmonicMapOptions& options)
+    : nv_(V.rows()), fixedVertices_(fixedVertices), freeIndex_(static_cast<size_t>(V.rows()), 0), options_(options) {
   for (Eigen::Index b = 0; b < fixedVertices.size(); ++b) {
     const int i = fixedVertices[b];
-    if (i < 0 || i >= nv) throw Error(ErrorKind::Input, "harmonicMap: fixed vertex " + std::to_string(i) + " out of range");
-    if (freeIndex[static_cast<size_t>(i)] < 0)
+    if (i < 0 || i >= nv_) throw Error(ErrorKind::Input, "harmonicMap: fixed vertex " + std::to_string(i) + " out of range");
+    if (freeIndex_[static_cast<size_t>(i)] < 0)
       throw Error(ErrorKind::Input, "harmonicMap: fixed vertex " + std::to_string(i) + " listed twice");
-    freeIndex[static_cast<size_t>(i)] = -1;
+    freeIndex_[static_cast<size_t>(i)] = -1;
   }
-  int numFree = 0;
-  for (auto& f : freeIndex)
-    if (f == 0) f = numFree++;
+  for (auto& f : freeIndex_)
+    if (f == 0) f = numFree_++;
 
-  HarmonicMapResult result;
+  HarmonicMapResult& result = prepared_;
   auto stopped = [&](double fraction, const std::string& what) {
-    if (options.progress && !options.progress(fraction, what)) {
+    if (options_.progress && !options_.progress(fraction, what)) {
       result.status = Status::failure("harmonicMap: stopped by the progress callback after " + what);
       return true;
     }
     return false;
   };
-  result.U.resize(nv, 3);
-  for (Eigen::Index b = 0; b < fixedVertices.size(); ++b) result.U.row(fixedVertices[b]) = fixedPositions.row(b);
-
   auto t0 = std::chrono::steady_clock::now();
-  const Eigen::SparseMatrix<double> L = cotangentStiffness(V, T);
-  // Split L into L_II (free × free) and the right-hand side −L_IB U_B.
+  L_ = cotangentStiffness(V, T);
+  // L_II (free × free); the right-hand side −L_IB U_B comes with the positions (solve).
   std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(static_cast<size_t>(L.nonZeros()));
-  Eigen::MatrixX3d rhs = Eigen::MatrixX3d::Zero(numFree, 3);
-  for (Eigen::Index j = 0; j < nv; ++j) {
-    const int fj = freeIndex[static_cast<size_t>(j)];
-    for (Eigen::SparseMatrix<double>::InnerIterator it(L, j); it; ++it) {
-      const int fi = freeIndex[static_cast<size_t>(it.row())];
-      if (fi < 0) continue;
-      if (fj >= 0)
-        entries.emplace_back(fi, fj, it.value());
-      else
-        rhs.row(fi) -= it.value() * result.U.row(j);
+  entries.reserve(static_cast<size_t>(L_.nonZeros()));
+  for (Eigen::Index j = 0; j < nv_; ++j) {
+    const int fj = freeIndex_[static_cast<size_t>(j)];
+    if (fj < 0) continue;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L_, j); it; ++it) {
+      const int fi = freeIndex_[static_cast<size_t>(it.row())];
+      if (fi >= 0) entries.emplace_back(fi, fj, it.value());
     }
   }
-  Eigen::SparseMatrix<double> Lii(numFree, numFree);
+  Eigen::SparseMatrix<double> Lii(numFree_, numFree_);
   Lii.setFromTriplets(entries.begin(), entries.end());
   entries = {};
   result.assemblySeconds = secondsSince(t0);
-  if (stopped(0.3, "assembly")) return result;
+  if (stopped(0.3, "assembly")) return;
 
   t0 = std::chrono::steady_clock::now();
-  detail::SpdSolver solver;
-  const bool factored = numFree == 0 || solver.compute(Lii);
-  result.solver = numFree == 0 ? "none (no free vertex)" : solver.name();
+  const bool factored = numFree_ == 0 || solver_.compute(Lii);
+  result.solver = numFree_ == 0 ? "none (no free vertex)" : solver_.name();
   result.factorizationSeconds = secondsSince(t0);
   if (!factored) {
     result.status = Status::failure("harmonicMap: the stiffness of the free vertices could not be factorised (" +
-                                    std::to_string(numFree) + " free vertices; is every component anchored?)");
-    return result;
+                                    std::to_string(numFree_) + " free vertices; is every component anchored?)");
+    return;
   }
-  if (stopped(0.8, "factorisation")) return result;
+  stopped(0.8, "factorisation");
+}
 
-  t0 = std::chrono::steady_clock::now();
-  if (numFree > 0) {
-    const Eigen::MatrixXd X = solver.solve(rhs);
-    for (Eigen::Index i = 0; i < nv; ++i)
-      if (freeIndex[static_cast<size_t>(i)] >= 0) result.U.row(i) = X.row(freeIndex[static_cast<size_t>(i)]);
+HarmonicMapResult HarmonicSystem::solve(const Eigen::MatrixX3d& fixedPositions) const {
+  if (fixedPositions.rows() != fixedVertices_.size())
+    throw Error(ErrorKind::Input, "harmonicMap: " + std::to_string(fixedVertices_.size()) +
+                                      " fixed vertices but " + std::to_string(fixedPositions.rows()) +
+                                      " fixed positions");
+  HarmonicMapResult result = prepared_;
+  result.U.resize(nv_, 3);
+  for (Eigen::Index b = 0; b < fixedVertices_.size(); ++b) result.U.row(fixedVertices_[b]) = fixedPositions.row(b);
+  if (!result.status.ok) return result;
+  // −L_IB U_B, column by column in L's order (each row's terms in the order
+  // in which the one-pass split of L subtracted them: the same bits).
+  auto t0 = std::chrono::steady_clock::now();
+  Eigen::MatrixX3d rhs = Eigen::MatrixX3d::Zero(numFree_, 3);
+  for (Eigen::Index j = 0; j < nv_; ++j) {
+    if (freeIndex_[static_cast<size_t>(j)] >= 0) continue;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L_, j); it; ++it) {
+      const int fi = freeIndex_[static_cast<size_t>(it.row())];
+      if (fi >= 0) rhs.row(fi) -= it.value() * result.U.row(j);
+    }
+  }
+  if (numFree_ > 0) {
+    const Eigen::MatrixXd X = solver_.solve(rhs);
+    for (Eigen::Index i = 0; i < nv_; ++i)
+      if (freeIndex_[static_cast<size_t>(i)] >= 0) result.U.row(i) = X.row(freeIndex_[static_cast<size_t>(i)]);
   }
   result.solveSeconds = secondsSince(t0);
   // Residual over the free rows, with the full L (not the split pieces).
-  const Eigen::MatrixX3d LU = L * result.U;
+  const Eigen::MatrixX3d LU = L_ * result.U;
   double r2 = 0;
-  for (Eigen::Index i = 0; i < nv; ++i)
-    if (freeIndex[static_cast<size_t>(i)] >= 0) r2 += LU.row(i).squaredNorm();
+  for (Eigen::Index i = 0; i < nv_; ++i)
+    if (freeIndex_[static_cast<size_t>(i)] >= 0) r2 += LU.row(i).squaredNorm();
   const double b2 = rhs.squaredNorm();
   result.relativeResidual = std::sqrt(r2) / (b2 > 0 ? std::sqrt(b2) : 1.0);
   if (!std::isfinite(result.relativeResidual))
     result.status = Status::failure("harmonicMap: the solve produced non-finite positions");
-  stopped(1.0, "solve");
+  if (options_.progress && !options_.progress(1.0, "solve"))
+    result.status = Status::failure("harmonicMap: stopped by the progress callback after solve");
   return result;
+}
+
+}  // namespace detail
+
+HarmonicMapResult harmonicMap(const Eigen::MatrixX3d& V, const Eigen::MatrixX4i& T,
+                              const Eigen::VectorXi& fixedVertices, const Eigen::MatrixX3d& fixedPositions,
+                              const HarmonicMapOptions& options) {
+  if (fixedPositions.rows() != fixedVertices.size())
+    throw Error(ErrorKind::Input, "harmonicMap: " + std::to_string(fixedVertices.size()) +
+                                      " fixed vertices but " + std::to_string(fixedPositions.rows()) +
+                                      " fixed positions");
+  return detail::HarmonicSystem(V, T, fixedVertices, options).solve(fixedPositions);
 }
 
 }  // namespace tet2spline

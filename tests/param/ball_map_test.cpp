@@ -119,3 +119,31 @@ TEST(MapToBall, ProgressCanStopIt) {
   const BallMapResult r = mapToBall(t2stest::ballGrid(3), o);
   EXPECT_FALSE(r.status.ok);
 }
+
+// The harmonic map's system is built on a thread of its own beside the
+// spherical map: its error (here a flat interior tet, which the boundary
+// and the spherical map do not see) must reach the caller as the library's
+// Error, not end the program.
+TEST(MapToBall, AFlatInteriorTetIsAnInputError) {
+  TetMesh m = t2stest::ballGrid(4);
+  std::vector<char> onBoundary(static_cast<size_t>(m.V.rows()), 0);
+  const Eigen::MatrixX3i F = boundaryFaces(m);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) onBoundary[static_cast<size_t>(F(f, k))] = 1;
+  Eigen::Index flat = -1;
+  for (Eigen::Index t = 0; t < m.T.rows() && flat < 0; ++t) {
+    bool interior = true;
+    for (int k = 0; k < 4; ++k) interior = interior && !onBoundary[static_cast<size_t>(m.T(t, k))];
+    if (interior) flat = t;
+  }
+  ASSERT_GE(flat, 0);
+  // Vertex 3 onto vertex 0: this tet's volume is exactly 0.
+  m.V.row(m.T(flat, 3)) = m.V.row(m.T(flat, 0));
+  try {
+    const BallMapResult r = mapToBall(m);
+    ADD_FAILURE() << "accepted a mesh with a flat tet: " << r.status.message;
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Input) << e.what();
+    EXPECT_NE(std::string(e.what()).find("non-positive volume"), std::string::npos) << e.what();
+  }
+}
