@@ -2,16 +2,15 @@
 #include "tet2spline/param/ball_map.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <exception>
 #include <numeric>
 #include <optional>
-#include <tbb/parallel_sort.h>
 #include <thread>
 
 #include "harmonic_system.h"
+#include "tet_faces.h"
 #include "tet2spline/param/harmonic_map.h"
 #include "tet2spline/param/topology.h"
 
@@ -23,45 +22,17 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Outward boundary triangles: faces used by one tet. For a positive tet
-// (a,b,c,d) the faces (b,c,d), (a,d,c), (a,b,d), (a,c,b) face outward.
-// (Local stand-in for topology.h's boundaryFaces(), implemented on another
-// branch; same contract.)
+// Outward boundary triangles: faces used by one tet, in the order of their
+// sorted vertices (detail::tetFaces). For a positive tet (a,b,c,d) the
+// faces (b,c,d), (a,d,c), (a,b,d), (a,c,b) face outward.
 Eigen::MatrixX3i outwardBoundaryFaces(const Eigen::MatrixX4i& T) {
-  constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  struct Face {
-    std::array<int, 3> key;
-    std::array<int, 3> oriented;
-  };
-  std::vector<Face> faces;
-  faces.reserve(static_cast<size_t>(T.rows()) * 4);
-  for (Eigen::Index t = 0; t < T.rows(); ++t)
-    for (const auto& f : kFace) {
-      Face face{{T(t, f[0]), T(t, f[1]), T(t, f[2])}, {T(t, f[0]), T(t, f[1]), T(t, f[2])}};
-      std::sort(face.key.begin(), face.key.end());
-      faces.push_back(face);
-    }
-  // On both cores, element by element (std::array's != is a memcmp call);
-  // the order is total, so the same as std::sort's.
-  tbb::parallel_sort(faces.begin(), faces.end(), [](const Face& x, const Face& y) {
-    for (int k = 0; k < 3; ++k)
-      if (x.key[k] != y.key[k]) return x.key[k] < y.key[k];
-    for (int k = 0; k < 3; ++k)
-      if (x.oriented[k] != y.oriented[k]) return x.oriented[k] < y.oriented[k];
-    return false;
-  });
-  std::vector<std::array<int, 3>> out;
-  for (size_t i = 0; i < faces.size();) {
-    size_t j = i;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j - i == 1) out.push_back(faces[i].oriented);
-    if (j - i > 2)
-      throw Error(ErrorKind::Topology, "mapToBall: a triangle is shared by " + std::to_string(j - i) +
-                                           " tets (non-manifold solid)");
-    i = j;
-  }
-  Eigen::MatrixX3i F(static_cast<Eigen::Index>(out.size()), 3);
-  for (size_t f = 0; f < out.size(); ++f) F.row(static_cast<Eigen::Index>(f)) << out[f][0], out[f][1], out[f][2];
+  const detail::TetFaces faces = detail::tetFaces(T, false);
+  if (faces.nonManifoldFaces > 0)
+    throw Error(ErrorKind::Topology, "mapToBall: a triangle is shared by " + std::to_string(faces.firstNonManifoldUses) +
+                                         " tets (non-manifold solid)");
+  Eigen::MatrixX3i F(static_cast<Eigen::Index>(faces.boundary.size()), 3);
+  for (size_t f = 0; f < faces.boundary.size(); ++f)
+    F.row(static_cast<Eigen::Index>(f)) << faces.boundary[f][0], faces.boundary[f][1], faces.boundary[f][2];
   return F;
 }
 

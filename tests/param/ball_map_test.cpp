@@ -6,6 +6,7 @@
 #include <Eigen/SVD>
 
 #include "ball_test_meshes.h"
+#include "param/test_shapes.h"
 #include "tet2spline/param/topology.h"
 
 using namespace tet2spline;
@@ -145,5 +146,24 @@ TEST(MapToBall, AFlatInteriorTetIsAnInputError) {
   } catch (const Error& e) {
     EXPECT_EQ(e.kind(), ErrorKind::Input) << e.what();
     EXPECT_NE(std::string(e.what()).find("non-positive volume"), std::string::npos) << e.what();
+  }
+}
+
+// The shell's faces come from the solid's face adjacency (detail::tetFaces):
+// a triangle of three tets is refused, with their number.
+TEST(MapToBall, ATriangleOfThreeTetsIsATopologyError) {
+  TetMesh m = t2stest::twoTets(3);
+  m.V.conservativeResize(9, 3);
+  m.V.row(8) << 0.2, 0.2, 5;  // a third tet on the same face, overlapping the first
+  m.T.conservativeResize(3, 4);
+  m.T.row(2) << 0, 1, 2, 8;
+  m.region = Eigen::VectorXi::Ones(3);
+  t2stest::orientPositive(m);
+  try {
+    mapToBall(m);
+    ADD_FAILURE() << "accepted a triangle shared by three tets";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::Topology) << e.what();
+    EXPECT_NE(std::string(e.what()).find("shared by 3 tets"), std::string::npos) << e.what();
   }
 }

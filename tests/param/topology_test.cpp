@@ -4,8 +4,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
+#include <map>
+#include <numeric>
+#include <random>
+#include <vector>
 
 #include "param/test_shapes.h"
 #include "test_data.h"
@@ -115,6 +121,46 @@ TEST(AnalyzeSolid, FaceSharedByThreeTetsIsReported) {
   const SolidReport r = analyzeSolid(m);
   EXPECT_EQ(r.nonManifoldFaces, 1);
   EXPECT_FALSE(r.valid());
+}
+
+// boundaryFaces against a plain reference (every face of every tet in a
+// map from its sorted vertices): the faces of exactly one tet, each once,
+// oriented as in that tet, in the order of their sorted vertices. On a real
+// mesh (TetGen's of fandisk), renumbered by a fixed shuffle so that the
+// smallest-vertex buckets of the face sort are not TetGen's order.
+TEST(AnalyzeSolid, BoundaryFacesAreTheFacesOfOneTetInKeyOrder) {
+  TetMesh m = tetrahedralize(readSurface(t2stest::cgalMesh("fandisk")));
+  const Eigen::Index nv = m.V.rows();
+  std::vector<int> perm(static_cast<size_t>(nv));
+  std::iota(perm.begin(), perm.end(), 0);
+  std::mt19937 rng(7);
+  std::shuffle(perm.begin(), perm.end(), rng);
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t)
+    for (int k = 0; k < 4; ++k) m.T(t, k) = perm[static_cast<size_t>(m.T(t, k))];
+  Eigen::MatrixX3d V(nv, 3);
+  for (Eigen::Index v = 0; v < nv; ++v) V.row(perm[static_cast<size_t>(v)]) = m.V.row(v);
+  m.V = V;
+  constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  std::map<std::array<int, 3>, std::vector<std::array<int, 3>>> uses;
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t)
+    for (const auto& f : kFace) {
+      const std::array<int, 3> oriented = {m.T(t, f[0]), m.T(t, f[1]), m.T(t, f[2])};
+      std::array<int, 3> key = oriented;
+      std::sort(key.begin(), key.end());
+      uses[key].push_back(oriented);
+    }
+  std::vector<std::array<int, 3>> expected;
+  for (const auto& [key, list] : uses) {
+    ASSERT_LE(list.size(), 2u);
+    if (list.size() == 1) expected.push_back(list[0]);
+  }
+  const Eigen::MatrixX3i B = boundaryFaces(m);
+  ASSERT_EQ(static_cast<size_t>(B.rows()), expected.size());
+  for (Eigen::Index f = 0; f < B.rows(); ++f)
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(B(f, k), expected[static_cast<size_t>(f)][static_cast<size_t>(k)]) << "face " << f;
+  const SolidReport r = analyzeSolid(m);
+  EXPECT_TRUE(r.valid()) << (r.problems.empty() ? "" : r.problems[0]);
+  EXPECT_EQ(r.components, 1);
 }
 
 TEST(AnalyzeSolid, AllInvertedIsReorientedSomeInvertedIsRefused) {
