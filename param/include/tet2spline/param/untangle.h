@@ -182,9 +182,10 @@ struct UntangleOptions {
   /// 0 = grow until the budget or every vertex is free.
   int stallBelow = 0;
   /// Within a region, once its fewest tets inverted (floating point, after
-  /// an ε round) is at most stallBelow: this many ε rounds in a row without
-  /// a new fewest end the region early (it grows, or the stall test above
-  /// ends the growing). 0 = every region runs its regionRounds.
+  /// an ε round) is at most stallBelow: this many ε rounds in a row, none
+  /// leaving at most three quarters of the count after the last round that
+  /// did, end the region early (it grows, or the stall test above ends the
+  /// growing). 0 = every region runs its regionRounds.
   int regionStallRounds = 0;
   /// Cube: interior vertices stay in [0, 1]³ (those outside at the start
   /// are mirrored in through the face): a bijection onto the cube has them
