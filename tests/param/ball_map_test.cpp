@@ -152,13 +152,7 @@ TEST(MapToBall, AFlatInteriorTetIsAnInputError) {
 // The shell's faces come from the solid's face adjacency (detail::tetFaces):
 // a triangle of three tets is refused, with their number.
 TEST(MapToBall, ATriangleOfThreeTetsIsATopologyError) {
-  TetMesh m = t2stest::twoTets(3);
-  m.V.conservativeResize(9, 3);
-  m.V.row(8) << 0.2, 0.2, 5;  // a third tet on the same face, overlapping the first
-  m.T.conservativeResize(3, 4);
-  m.T.row(2) << 0, 1, 2, 8;
-  m.region = Eigen::VectorXi::Ones(3);
-  t2stest::orientPositive(m);
+  const TetMesh m = t2stest::threeTetsOnOneFace();
   try {
     mapToBall(m);
     ADD_FAILURE() << "accepted a triangle shared by three tets";

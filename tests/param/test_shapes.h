@@ -79,6 +79,19 @@ inline tet2spline::TetMesh twoTets(int shared) {
   return m;
 }
 
+/// twoTets(3) with a third tet on their shared face, overlapping the first:
+/// a triangle of three tets (a non-manifold solid).
+inline tet2spline::TetMesh threeTetsOnOneFace() {
+  tet2spline::TetMesh m = twoTets(3);
+  m.V.conservativeResize(9, 3);
+  m.V.row(8) << 0.2, 0.2, 5;
+  m.T.conservativeResize(3, 4);
+  m.T.row(2) << 0, 1, 2, 8;
+  m.region = Eigen::VectorXi::Ones(3);
+  orientPositive(m);
+  return m;
+}
+
 /// Triangulated sphere: an octahedron subdivided `levels` times, projected;
 /// outward-oriented (inward when `inward`).
 inline tet2spline::SurfaceMesh sphere(int levels, double radius = 1,

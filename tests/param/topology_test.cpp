@@ -111,13 +111,7 @@ TEST(AnalyzeSolid, TetsSharingAFaceAreOneSolid) {
 }
 
 TEST(AnalyzeSolid, FaceSharedByThreeTetsIsReported) {
-  TetMesh m = t2stest::twoTets(3);
-  m.V.conservativeResize(9, 3);
-  m.V.row(8) << 0.2, 0.2, 5;  // a third tet on the same face, overlapping the first
-  m.T.conservativeResize(3, 4);
-  m.T.row(2) << 0, 1, 2, 8;
-  m.region = Eigen::VectorXi::Ones(3);
-  t2stest::orientPositive(m);
+  const TetMesh m = t2stest::threeTetsOnOneFace();
   const SolidReport r = analyzeSolid(m);
   EXPECT_EQ(r.nonManifoldFaces, 1);
   EXPECT_FALSE(r.valid());
