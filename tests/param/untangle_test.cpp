@@ -142,6 +142,35 @@ TEST(Untangle, AStalledRegionStopsGrowing) {
     }
 }
 
+// regionStallRounds: once at most stallBelow are left, a region whose
+// rounds stop taking a quarter off its count ends early. The folded face's
+// tets cannot be repaired with the boundary held, so no round after the
+// first takes a quarter off: the region ends after 1 + 2 rounds instead of
+// its regionRounds, and (being stalled) the regions stop growing there.
+TEST(Untangle, ARegionWithoutProgressEndsAfterItsStallRounds) {
+  const int n = 6, s = n + 1;
+  const TetMesh m = t2stest::cubeGrid(n);
+  const auto fixed = boundaryMask(m);
+  Eigen::MatrixX3d U = m.V;
+  U.row(0 + s * (3 + s * 3)).swap(U.row(0 + s * (4 + s * 3)));
+  UntangleOptions options;
+  options.localRepairSweeps = 0;
+  options.stallBelow = 1000;
+  const UntangleResult rounds = untangle(m.V, m.T, U, fixed, options);
+  ASSERT_TRUE(rounds.stalled);
+  EXPECT_EQ(rounds.outerIterations, options.regionRounds);
+  options.regionStallRounds = 2;
+  const UntangleResult early = untangle(m.V, m.T, U, fixed, options);
+  EXPECT_TRUE(early.stalled);
+  EXPECT_EQ(early.outerIterations, 3);
+  EXPECT_GT(early.invertedAfter, 0);
+  EXPECT_LE(early.invertedAfter, early.invertedBefore);  // never worse than the start
+  for (Eigen::Index v = 0; v < U.rows(); ++v)
+    if (fixed[v]) {
+      EXPECT_EQ(early.U.row(v), U.row(v));
+    }
+}
+
 TEST(Untangle, NothingToDoLeavesTheMapAlone) {
   const TetMesh m = t2stest::cubeGrid(3);
   const UntangleResult r = untangle(m.V, m.T, m.V, boundaryMask(m));
