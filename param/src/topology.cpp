@@ -16,8 +16,8 @@
 #include <numeric>
 
 #include "self_intersection.h"
-#include "tet_faces.h"
 #include "shell_geometry.h"
+#include "tet_faces.h"
 
 namespace tet2spline {
 
