@@ -2,9 +2,9 @@
 // load (mesh a surface or CAD solid), validate, parameterize (cube by default),
 // fit the spline and write every export, report.json and report.html.
 // Everything is staged and moved into OUTDIR only when all stages succeeded.
+#include <exception>
 #include <filesystem>
 #include <iostream>
-#include <exception>
 #include <memory>
 #include <thread>
 

@@ -522,8 +522,10 @@ constexpr int kFinishingRounds = 8;
 // tets, and this many splits.
 constexpr int kMaxSplitTets = 64;
 constexpr int kSplitRounds = 3;
-// ε rounds without a new fewest that end a region of the final untangling
-// once at most kMaxSplitTets are left (UntangleOptions::regionStallRounds).
+// ε rounds in a row without progress (none leaving at most three quarters
+// of the count after the last that did) that end a region of the final
+// untangling once at most kMaxSplitTets are left
+// (UntangleOptions::regionStallRounds).
 // Not in the ball map's untangling: there it changed the sites, hence the
 // transport, of triceratops, spool and hand (hand's morph then ended 3.25
 // target edges from the transport's map instead of 0.60).
