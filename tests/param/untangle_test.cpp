@@ -24,6 +24,26 @@ std::vector<bool> boundaryMask(const TetMesh& m) {
   return fixed;
 }
 
+// A run that cannot succeed: on a 6³ grid with its boundary held, two
+// neighbouring vertices of the face x = −1, (i, j, k) = (0, 3, 3) and
+// (0, 4, 3), are swapped, so the face folds and its tets stay inverted
+// whatever the interior does.
+struct FoldedFace {
+  TetMesh m;
+  std::vector<bool> fixed;
+  Eigen::MatrixX3d U;
+};
+FoldedFace foldedFace() {
+  const int n = 6, s = n + 1;
+  FoldedFace f{t2stest::cubeGrid(n), {}, {}};
+  f.fixed = boundaryMask(f.m);
+  f.U = f.m.V;
+  const int a = 0 + s * (3 + s * 3), b = 0 + s * (4 + s * 3);
+  EXPECT_TRUE(f.fixed[a] && f.fixed[b]);
+  f.U.row(a).swap(f.U.row(b));
+  return f;
+}
+
 // Per vertex: whether it is a corner of one of `faces`.
 std::vector<bool> onFaces(const Eigen::MatrixX3i& faces, Eigen::Index numVertices) {
   std::vector<bool> on(static_cast<size_t>(numVertices), false);
@@ -79,16 +99,8 @@ TEST_P(UntangleMethods, LocalRegionFixesAFewInvertedTets) {
 }
 
 TEST(Untangle, WorkBudgetEndsAFailingRunEarly) {
-  // A run that cannot succeed: two neighbouring vertices of a held face are
-  // swapped, so the face folds and its tets stay inverted whatever the
-  // interior does; the run grows its region up to every free vertex.
-  const int n = 6, s = n + 1;
-  const TetMesh m = t2stest::cubeGrid(n);
-  const auto fixed = boundaryMask(m);
-  Eigen::MatrixX3d U = m.V;
-  const int a = 0 + s * (3 + s * 3), b = 0 + s * (4 + s * 3);  // (i, j, k) = (0, 3, 3), (0, 4, 3): on the face x = −1
-  ASSERT_TRUE(fixed[a] && fixed[b]);
-  U.row(a).swap(U.row(b));
+  // (foldedFace: the run grows its region up to every free vertex)
+  const auto [m, fixed, U] = foldedFace();
   UntangleOptions options;
   options.localRepairSweeps = 0;
   const UntangleResult full = untangle(m.V, m.T, U, fixed, options);
@@ -117,11 +129,7 @@ TEST(Untangle, WorkBudgetEndsAFailingRunEarly) {
 // The same run with stallBelow: its first region ends with the folded
 // face's tets still inverted, so the regions stop growing there.
 TEST(Untangle, AStalledRegionStopsGrowing) {
-  const int n = 6, s = n + 1;
-  const TetMesh m = t2stest::cubeGrid(n);
-  const auto fixed = boundaryMask(m);
-  Eigen::MatrixX3d U = m.V;
-  U.row(0 + s * (3 + s * 3)).swap(U.row(0 + s * (4 + s * 3)));
+  const auto [m, fixed, U] = foldedFace();
   UntangleOptions options;
   options.localRepairSweeps = 0;
   const UntangleResult full = untangle(m.V, m.T, U, fixed, options);
@@ -148,11 +156,7 @@ TEST(Untangle, AStalledRegionStopsGrowing) {
 // first takes a quarter off: the region ends after 1 + 2 rounds instead of
 // its regionRounds, and (being stalled) the regions stop growing there.
 TEST(Untangle, ARegionWithoutProgressEndsAfterItsStallRounds) {
-  const int n = 6, s = n + 1;
-  const TetMesh m = t2stest::cubeGrid(n);
-  const auto fixed = boundaryMask(m);
-  Eigen::MatrixX3d U = m.V;
-  U.row(0 + s * (3 + s * 3)).swap(U.row(0 + s * (4 + s * 3)));
+  const auto [m, fixed, U] = foldedFace();
   UntangleOptions options;
   options.localRepairSweeps = 0;
   options.stallBelow = 1000;
