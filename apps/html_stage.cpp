@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <future>
 #include <map>
 
 #include "tet2spline/io/html_report.h"
@@ -154,6 +155,28 @@ void writeRunHtml(const json& report, const ParamResult* param, const spline::BS
   RenderOptions ro;
   ro.width = 640;
   ro.height = 480;
+  // The three pictures are independent: the spline's boundary is drawn on a
+  // thread of its own from here, the parameterization's cut on another
+  // while this one draws the solid's cut.
+  std::future<ReportImage> splinePicture;
+  if (volume)
+    splinePicture = std::async(std::launch::async, [volume, ro] {
+      Eigen::MatrixX3d V;
+      Eigen::MatrixX3i F;
+      Eigen::VectorXd sj;
+      splineSurface(*volume, 48, V, F, sj);
+      SurfaceColors colors;
+      colors.vertexScalar = sj;
+      RenderOptions so = ro;
+      so.scalarMin = 0;
+      so.scalarMax = 1;
+      ReportImage pic("the spline's boundary, coloured by the scaled Jacobian", renderSurface(V, F, colors, so));
+      pic.hasColorBar = true;
+      pic.scalarMin = 0;
+      pic.scalarMax = 1;
+      pic.scalarLabel = "scaled Jacobian";
+      return pic;
+    });
   if (param) {
     const Eigen::Index nt = param->mesh.numTets();
     std::vector<double> ratios(static_cast<size_t>(nt));
@@ -181,12 +204,6 @@ void writeRunHtml(const json& report, const ParamResult* param, const spline::BS
     byRegion.tetLabel = param->mesh.region;
     RenderOptions cutOptions = ro;
     cutOptions.edges = nt < 200000;
-    ReportImage solid("cut through the solid, coloured by region",
-                      renderTetCut(param->mesh.V, param->mesh.T, cut, byRegion, cutOptions));
-    for (int id : std::vector<int>(param->mesh.region.data(), param->mesh.region.data() + nt))
-      if (std::none_of(solid.legend.begin(), solid.legend.end(), [&](const auto& l) { return l.first == id; }))
-        solid.legend.emplace_back(id, "region " + std::to_string(id) + (param->mesh.voidRegions.count(id) ? " (void)" : ""));
-    h.images.push_back(std::move(solid));
     const Eigen::Vector3d ucentre = 0.5 * (param->U.colwise().minCoeff() + param->U.colwise().maxCoeff()).transpose();
     TetColors byRatio;
     byRatio.tetScalar = logRatio;
@@ -194,9 +211,18 @@ void writeRunHtml(const json& report, const ParamResult* param, const spline::BS
     ratioOptions.colorMap = ColorMap::Diverging;
     ratioOptions.scalarMin = -1;
     ratioOptions.scalarMax = 1;
+    // (Declared after everything it reads: an exception here waits for it.)
+    std::future<Image> domainCut = std::async(std::launch::async, [&] {
+      return renderTetCut(param->U, param->mesh.T, ClipPlane{ucentre, Eigen::Vector3d(0.3, 1, 0.2)}, byRatio, ratioOptions);
+    });
+    ReportImage solid("cut through the solid, coloured by region",
+                      renderTetCut(param->mesh.V, param->mesh.T, cut, byRegion, cutOptions));
+    for (int id : std::vector<int>(param->mesh.region.data(), param->mesh.region.data() + nt))
+      if (std::none_of(solid.legend.begin(), solid.legend.end(), [&](const auto& l) { return l.first == id; }))
+        solid.legend.emplace_back(id, "region " + std::to_string(id) + (param->mesh.voidRegions.count(id) ? " (void)" : ""));
+    h.images.push_back(std::move(solid));
     ReportImage domain("the parameterization cut through its domain, coloured by log10(parametric / target volume)",
-                       renderTetCut(param->U, param->mesh.T, ClipPlane{ucentre, Eigen::Vector3d(0.3, 1, 0.2)}, byRatio,
-                                    ratioOptions));
+                       domainCut.get());
     domain.hasColorBar = true;
     domain.colorMap = ColorMap::Diverging;
     domain.scalarMin = -1;
@@ -205,21 +231,7 @@ void writeRunHtml(const json& report, const ParamResult* param, const spline::BS
     h.images.push_back(std::move(domain));
   }
   if (volume) {
-    Eigen::MatrixX3d V;
-    Eigen::MatrixX3i F;
-    Eigen::VectorXd sj;
-    splineSurface(*volume, 48, V, F, sj);
-    SurfaceColors colors;
-    colors.vertexScalar = sj;
-    RenderOptions so = ro;
-    so.scalarMin = 0;
-    so.scalarMax = 1;
-    ReportImage pic("the spline's boundary, coloured by the scaled Jacobian", renderSurface(V, F, colors, so));
-    pic.hasColorBar = true;
-    pic.scalarMin = 0;
-    pic.scalarMax = 1;
-    pic.scalarLabel = "scaled Jacobian";
-    h.images.push_back(std::move(pic));
+    h.images.push_back(splinePicture.get());
     ReportHistogram hist;
     hist.title = "scaled Jacobian of the spline";
     hist.xLabel = "scaled Jacobian at sample points";
