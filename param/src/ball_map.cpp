@@ -30,10 +30,7 @@ Eigen::MatrixX3i outwardBoundaryFaces(const Eigen::MatrixX4i& T) {
   if (faces.nonManifoldFaces > 0)
     throw Error(ErrorKind::Topology, "mapToBall: a triangle is shared by " + std::to_string(faces.firstNonManifoldUses) +
                                          " tets (non-manifold solid)");
-  Eigen::MatrixX3i F(static_cast<Eigen::Index>(faces.boundary.size()), 3);
-  for (size_t f = 0; f < faces.boundary.size(); ++f)
-    F.row(static_cast<Eigen::Index>(f)) << faces.boundary[f][0], faces.boundary[f][1], faces.boundary[f][2];
-  return F;
+  return detail::boundaryMatrix(faces);
 }
 
 // Number of edge-connected shells of a triangle set.

@@ -21,4 +21,7 @@ struct TetFaces {
 /// T's vertex indices must be in range (checkTetIndices).
 TetFaces tetFaces(const Eigen::MatrixX4i& T, bool wantComponents);
 
+/// faces.boundary as rows, #boundary × 3.
+Eigen::MatrixX3i boundaryMatrix(const TetFaces& faces);
+
 }  // namespace tet2spline::detail

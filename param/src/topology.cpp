@@ -325,6 +325,13 @@ TetFaces tetFaces(const Eigen::MatrixX4i& T, bool wantComponents) {
   return out;
 }
 
+Eigen::MatrixX3i boundaryMatrix(const TetFaces& faces) {
+  Eigen::MatrixX3i B(static_cast<Eigen::Index>(faces.boundary.size()), 3);
+  for (std::size_t f = 0; f < faces.boundary.size(); ++f)
+    B.row(static_cast<Eigen::Index>(f)) << faces.boundary[f][0], faces.boundary[f][1], faces.boundary[f][2];
+  return B;
+}
+
 }  // namespace detail
 
 namespace {
@@ -362,10 +369,7 @@ struct ProblemList {
 
 Eigen::MatrixX3i boundaryFaces(const TetMesh& mesh) {
   checkTetIndices(mesh, "boundaryFaces");
-  const auto faces = detail::tetFaces(mesh.T, false).boundary;
-  Eigen::MatrixX3i B(faces.size(), 3);
-  for (std::size_t f = 0; f < faces.size(); ++f) B.row(f) << faces[f][0], faces[f][1], faces[f][2];
-  return B;
+  return detail::boundaryMatrix(detail::tetFaces(mesh.T, false));
 }
 
 SolidReport analyzeSolid(const TetMesh& mesh) {
