@@ -160,6 +160,7 @@ json solidJson(const LoadedSolid& s) {
   j["reoriented"] = s.reoriented;
   j["removed_unused_vertices"] = s.removedUnusedVertices;
   j["caps_flipped"] = s.capsFlipped;
+  j["tetgen_queue_slots_grown"] = s.tetgenQueueSlotsGrown;
   j["duplicate_vertices"] = r.duplicateVertices;
   j["unused_vertices"] = r.unusedVertices;
   j["nonmanifold_boundary_edges"] = r.nonManifoldBoundaryEdges;

@@ -24,6 +24,7 @@ LoadedSolid loadSolid(const std::string& path, const LoadOptions& options) {
     TetrahedralizeStats stats;
     out.mesh = tetrahedralize(cad ? readCadSurface(path, options.cad) : readSurface(path), options.meshing, path, &stats);
     out.capsFlipped = stats.capsFlipped;
+    out.tetgenQueueSlotsGrown = stats.queueSlotsGrown;
   } else {
     throwInputError(path, 0,
                     "unknown file extension (expected .mesh, .msh, .node, .ele, .vtu, .vtk, .off, .obj, .stl, "

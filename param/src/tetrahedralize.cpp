@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <ctime>
 #include <limits>
 #include <map>
 #include <new>
@@ -72,6 +74,187 @@ std::string tetgenFailure(int code) {
     case 10: return "TetGen refused the input";
     default: return "TetGen failed with code " + std::to_string(code);
   }
+}
+
+// ---------------------------------------------------------------------------
+// TetGen's steps for our switches, with one change that keeps its mesh.
+//
+// TetGen 1.5.0's Delaunay refinement first queues every boundary segment
+// (bunny00: 113k) and every subface in two memory pools and repairs them.
+// The pools keep their high-water mark: every later repair pass (one after
+// each tet circumcentre that encroaches on the boundary) walks all those
+// dead slots to find the few live ones. perf on bunny00 (`tetgen -pAq1.5`):
+// 31% of TetGen's 14 s in memorypool::traverse, nearly all of it under
+// repairencsegs/repairencfacs called from splittetrahedron.
+//
+// A pass visits the live entries in slot order, and a new entry takes the
+// slot on top of the pool's stack of dead slots. So once a pool is empty,
+// only two things decide every later pass: the order of its dead stack and
+// the slot order of the slots on it. compactDeadStack keeps both for the
+// top `keep` entries of the stack and drops the rest: the new pool's slots
+// are 0 .. keep-1, ranked as the old slots were, stacked in the old order.
+// As long as no more than `keep` entries are ever live at once, every pass
+// then visits the same entries in the same order, and TetGen makes the same
+// mesh bit for bit (tested against tetrahedralize() itself, and counted by
+// runTetGen: a pool that grew past `keep` is reported in the stats).
+// ---------------------------------------------------------------------------
+
+// Rebuilds an empty pool of `face` entries (TetGen's badsubsegs and
+// badsubfacs) as described above. Returns the number of slots kept, and
+// adds the number dropped to `dropped`.
+long compactDeadStack(tetgenmesh::memorypool& pool, long keep, long& dropped) {
+  if (pool.items != 0 || pool.deaditemstack == nullptr) return 0;
+  // The pool's blocks in traversal order, with their first item's address.
+  const auto firstItem = [&](void** block) {
+    const auto align = static_cast<std::uintptr_t>(pool.alignbytes);
+    const auto p = reinterpret_cast<std::uintptr_t>(block + 1);
+    return p + align - p % align;
+  };
+  std::vector<std::pair<std::uintptr_t, long>> blocks;  // (first item's address, block index)
+  long index = 0;
+  for (void** block = pool.firstblock; block != nullptr; block = static_cast<void**>(*block)) {
+    blocks.emplace_back(firstItem(block), index++);
+    if (block == pool.nowblock) break;
+  }
+  std::sort(blocks.begin(), blocks.end());
+  const auto bytes = static_cast<std::uintptr_t>(pool.itembytes);
+  const auto slotOf = [&](void* item) -> long {
+    const auto p = reinterpret_cast<std::uintptr_t>(item);
+    auto it = std::upper_bound(blocks.begin(), blocks.end(), std::make_pair(p, std::numeric_limits<long>::max()));
+    if (it == blocks.begin()) return -1;
+    --it;
+    const std::uintptr_t offset = p - it->first;
+    if (offset % bytes != 0 || offset / bytes >= static_cast<std::uintptr_t>(pool.itemsperblock)) return -1;
+    return it->second * pool.itemsperblock + static_cast<long>(offset / bytes);
+  };
+  // The stack's top `keep` entries (top first), by their slots.
+  std::vector<long> stack;
+  long depth = 0;
+  for (void* item = pool.deaditemstack; item != nullptr; item = *static_cast<void**>(item), ++depth) {
+    if (depth >= keep) continue;
+    const long slot = slotOf(item);
+    if (slot < 0) return 0;  // not a layout we know: leave the pool as it is
+    stack.push_back(slot);
+  }
+  dropped += depth - static_cast<long>(stack.size());
+  std::vector<long> sorted = stack;
+  std::sort(sorted.begin(), sorted.end());
+  pool.restart();
+  std::vector<void*> fresh(stack.size());
+  for (auto& item : fresh) item = pool.alloc();  // slots 0, 1, ... in traversal order
+  // Push them back bottom first, so the old top's counterpart is on top again;
+  // shver < 0 marks a dead entry for the repair passes.
+  for (std::size_t k = stack.size(); k-- > 0;) {
+    const auto rank = std::lower_bound(sorted.begin(), sorted.end(), stack[k]) - sorted.begin();
+    auto* entry = static_cast<tetgenmesh::face*>(fresh[static_cast<std::size_t>(rank)]);
+    entry->shver = -1;
+    pool.dealloc(entry);
+  }
+  return static_cast<long>(stack.size());
+}
+
+// Owns TetGen's refinement queues (its own delaunayrefinement leaks them
+// when it throws).
+struct RefinementQueues {
+  tetgenmesh& m;
+  ~RefinementQueues() {
+    delete m.encseglist;
+    delete m.encshlist;
+    delete m.badsubsegs;
+    delete m.badsubfacs;
+    delete m.badtetrahedrons;
+    m.encseglist = m.encshlist = nullptr;
+    m.badsubsegs = m.badsubfacs = m.badtetrahedrons = nullptr;
+  }
+};
+
+// Dead-stack entries kept by compactDeadStack: far more than are ever live
+// at once in the refinement of our meshes, far fewer than the 113k-340k
+// slots the pools grow to.
+constexpr long kQueueSlots = 8192;
+
+// TetGen 1.5.0's delaunayrefinement() for a PLC without -Y, -m or -S, its
+// queues compacted once they are empty (see above). Returns the entries
+// that grew past the compacted pools (0: TetGen's own mesh) and adds the
+// slots dropped to `dropped`.
+long refine(tetgenmesh& m, long& dropped) {
+  tetgenbehavior& b = *m.b;
+  m.steinerleft = b.steinerleft;
+  if (m.useinsertradius) m.makefacetverticesmap();
+  RefinementQueues owned{m};
+  m.encseglist = new tetgenmesh::arraypool(sizeof(tetgenmesh::face), 8);
+  m.encshlist = new tetgenmesh::arraypool(sizeof(tetgenmesh::badface), 8);
+  // Encroached segments, then subfaces (chkencflag 1, 2).
+  m.badsubsegs = new tetgenmesh::memorypool(sizeof(tetgenmesh::face), b.shellfaceperblock, sizeof(void*), 0);
+  tetgenmesh::face entry;
+  m.subsegs->traversalinit();
+  for (entry.sh = m.shellfacetraverse(m.subsegs); entry.sh != nullptr; entry.sh = m.shellfacetraverse(m.subsegs))
+    m.enqueuesubface(m.badsubsegs, &entry);
+  m.repairencsegs(1);
+  long kept = 0;
+  if (b.reflevel > 1) {
+    kept = compactDeadStack(*m.badsubsegs, kQueueSlots, dropped);
+    m.badsubfacs = new tetgenmesh::memorypool(sizeof(tetgenmesh::face), b.shellfaceperblock, sizeof(void*), 0);
+    m.subfaces->traversalinit();
+    for (entry.sh = m.shellfacetraverse(m.subfaces); entry.sh != nullptr;
+         entry.sh = m.shellfacetraverse(m.subfaces))
+      m.enqueuesubface(m.badsubfacs, &entry);
+    m.repairencfacs(2);
+  }
+  long grown = 0;
+  if (kept > 0 && m.badsubsegs->maxitems > kept) {
+    grown += m.badsubsegs->maxitems - kept;
+    kept = 0;
+  }
+  if (b.reflevel > 2) {
+    // Bad tets (chkencflag 4), with both boundary queues compacted.
+    if (kept == 0) kept = compactDeadStack(*m.badsubsegs, kQueueSlots, dropped);
+    const long keptFaces = m.badsubfacs ? compactDeadStack(*m.badsubfacs, kQueueSlots, dropped) : 0;
+    const long segmentsBefore = m.badsubsegs->maxitems, facesBefore = m.badsubfacs ? m.badsubfacs->maxitems : 0;
+    m.cosmindihed = std::cos(b.mindihedral / 180.0 * 3.14159265358979323846264338327950288419716939937510582);
+    m.badtetrahedrons =
+        new tetgenmesh::memorypool(sizeof(tetgenmesh::triface), b.tetrahedraperblock, sizeof(void*), 0);
+    tetgenmesh::triface tet;
+    m.tetrahedrons->traversalinit();
+    for (tet.tet = m.tetrahedrontraverse(); tet.tet != nullptr; tet.tet = m.tetrahedrontraverse())
+      m.enqueuetetrahedron(&tet);
+    m.repairbadtets(4);
+    // A compacted pool that had to take fresh slots ran deeper than `keep`.
+    if (kept > 0) grown += m.badsubsegs->maxitems - segmentsBefore;
+    if (keptFaces > 0) grown += m.badsubfacs->maxitems - facesBefore;
+  }
+  return grown;
+}
+
+// TetGen 1.5.0's tetrahedralize(b, in, out) for the switches tetrahedralize()
+// below sets (-pAQ, -q, -a, a dihedral bound, the facet angle tolerance), its
+// refinement by refine() above; only the points and tets are written out.
+// Sets the stats' queue counts (see TetrahedralizeStats).
+void runTetGen(tetgenbehavior& b, tetgenio& in, tetgenio& out, TetrahedralizeStats& stats) {
+  if (!b.plc || b.refine || b.nobisect || b.coarsen || b.metric || b.insertaddpoints || b.diagnose ||
+      b.convex || b.order != 1 || b.steinerleft != -1 || b.docheck || !b.quiet) {
+    ::tetrahedralize(&b, &in, &out);
+    return;
+  }
+  tetgenmesh m;
+  m.b = &b;
+  m.in = &in;
+  m.addin = nullptr;
+  m.initializepools();
+  m.transfernodes();
+  exactinit(b.verbose, b.noexact, b.nostaticfilter, m.xmax - m.xmin, m.ymax - m.ymin, m.zmax - m.zmin);
+  clock_t ticks;
+  m.incrementaldelaunay(ticks);
+  m.meshsurface();
+  m.constraineddelaunay(ticks);
+  m.carveholes();
+  if (b.quality) stats.queueSlotsGrown = refine(m, stats.queueSlotsDropped);
+  if (b.optlevel > 0) m.optimizemesh();
+  if (!b.nojettison && (m.dupverts > 0 || m.unuverts > 0)) m.jettisonnodes();
+  out.firstnumber = in.firstnumber;
+  out.mesh_dim = in.mesh_dim;
+  m.outnodes(&out);
+  if (m.tetrahedrons->items > 0) m.outelements(&out);
 }
 
 }  // namespace
@@ -239,7 +422,13 @@ TetMesh tetrahedralize(const SurfaceMesh& input, const TetrahedralizeOptions& op
   // off the input surface; 180° keeps every input triangle its own facet.
   if (options.exactBoundary) behavior.facet_ang_tol = 180;
   try {
-    ::tetrahedralize(&behavior, &in, &out);
+    if (options.tetgenDriver) {
+      TetrahedralizeStats queues;
+      runTetGen(behavior, in, out, queues);
+      if (stats) stats->queueSlotsGrown = queues.queueSlotsGrown, stats->queueSlotsDropped = queues.queueSlotsDropped;
+    } else {
+      ::tetrahedralize(&behavior, &in, &out);
+    }
   } catch (int code) {
     throw Error(code == 1 || code == 2 ? ErrorKind::Numerical : ErrorKind::Input,
                 sourceName + ": " + tetgenFailure(code));

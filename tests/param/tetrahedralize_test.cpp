@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <map>
 #include <utility>
+#include <vector>
 
 #include "param/test_shapes.h"
 #include "test_data.h"
@@ -162,6 +163,51 @@ TEST(TetrahedralizeReal, MinimumDihedralAngleRemovesSlivers) {
               before.tets, before.below5, before.below15, after.tets, after.below5, after.below15, after.smallest);
   EXPECT_LE(after.below15, 0.6 * before.below15);
   EXPECT_LE(after.below5, before.below5);
+}
+
+// tetrahedralize() runs TetGen's steps itself and compacts TetGen's
+// refinement queues once they are empty (TetrahedralizeOptions::
+// tetgenDriver). That must not change the mesh: on real surfaces, with the
+// options the pipeline uses (exact boundary, the dihedral bound, a size
+// limit, the merged facets of CAD-like input, nested shells as regions),
+// the points and tets are bit for bit those of TetGen's own
+// tetrahedralize(), and the driver did drop dead queue slots.
+TEST(TetrahedralizeReal, QueueCompactionKeepsTetGensOwnMesh) {
+  struct Case {
+    std::string mesh;
+    TetrahedralizeOptions options;
+  };
+  std::vector<Case> cases(6);
+  cases[0] = {"blobby", {}};
+  cases[1] = {"fandisk", {}};
+  cases[1].options.exactBoundary = false;
+  cases[2] = {"spool", {}};
+  cases[2].options.minDihedral = 15;
+  cases[3] = {"triceratops", {}};
+  cases[3].options.exactBoundary = false;
+  cases[4] = {"hand", {}};
+  cases[4].options.relativeSize = 0.03;
+  cases[5] = {"two spheres, the inner one a void", {}};
+  cases[5].options.voids = true;
+  for (const Case& c : cases) {
+    const SurfaceMesh s = c.options.voids ? t2stest::merge(t2stest::sphere(5, 2), t2stest::sphere(4, 0.7))
+                                          : readSurface(t2stest::cgalMesh(c.mesh));
+    TetrahedralizeOptions own = c.options;
+    own.tetgenDriver = false;
+    TetrahedralizeStats stats;
+    const TetMesh reference = tetrahedralize(s, own, c.mesh);
+    const TetMesh driven = tetrahedralize(s, c.options, c.mesh, &stats);
+    std::printf("%s: %lld vertices, %lld tets; %ld dead queue slots dropped, %ld grown\n", c.mesh.c_str(),
+                static_cast<long long>(driven.V.rows()), static_cast<long long>(driven.T.rows()),
+                stats.queueSlotsDropped, stats.queueSlotsGrown);
+    EXPECT_GT(stats.queueSlotsDropped, 0) << c.mesh;
+    EXPECT_EQ(stats.queueSlotsGrown, 0) << c.mesh;
+    ASSERT_EQ(driven.V.rows(), reference.V.rows()) << c.mesh;
+    ASSERT_EQ(driven.T.rows(), reference.T.rows()) << c.mesh;
+    EXPECT_TRUE(driven.V == reference.V) << c.mesh;  // exact comparison
+    EXPECT_TRUE(driven.T == reference.T) << c.mesh;
+    EXPECT_TRUE(driven.region == reference.region) << c.mesh;
+  }
 }
 
 TEST(Tetrahedralize, InwardOrientedSphereIsMeshedTheSame) {

@@ -25,6 +25,9 @@ struct LoadedSolid {
   bool reoriented = false;        ///< every tet of the input was inverted and was flipped
   int removedUnusedVertices = 0;  ///< vertices of a volume file that no tet uses (dropped)
   int capsFlipped = 0;            ///< surface/CAD input: caps removed by edge flips before meshing
+  /// surface/CAD input: TetrahedralizeStats::queueSlotsGrown (0: the mesh is
+  /// the one TetGen's own tetrahedralize() makes)
+  long tetgenQueueSlotsGrown = 0;
   double seconds = 0;             ///< reading + tessellation + meshing + analysis
 };
 
