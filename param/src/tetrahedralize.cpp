@@ -99,11 +99,20 @@ std::string tetgenFailure(int code) {
 // runTetGen: a pool that grew past `keep` is reported in the stats).
 // ---------------------------------------------------------------------------
 
+// What compactDeadStack did to a pool: the slots it kept, and whether it
+// dropped any (only then can a pool that grows past `kept` differ from
+// TetGen's: with the whole stack kept, it grows as TetGen's own does, at
+// the end of the slot order).
+struct Compaction {
+  long kept = 0;
+  bool truncated = false;
+};
+
 // Rebuilds an empty pool of `face` entries (TetGen's badsubsegs and
-// badsubfacs) as described above. Returns the number of slots kept, and
-// adds the number dropped to `dropped`.
-long compactDeadStack(tetgenmesh::memorypool& pool, long keep, long& dropped) {
-  if (pool.items != 0 || pool.deaditemstack == nullptr) return 0;
+// badsubfacs) as described above; adds the number of slots dropped to
+// `dropped`. A pool that is not empty stays as it is.
+Compaction compactDeadStack(tetgenmesh::memorypool& pool, long keep, long& dropped) {
+  if (pool.items != 0 || pool.deaditemstack == nullptr) return {};
   // The pool's blocks in traversal order, with their first item's address.
   const auto firstItem = [&](void** block) {
     const auto align = static_cast<std::uintptr_t>(pool.alignbytes);
@@ -133,7 +142,7 @@ long compactDeadStack(tetgenmesh::memorypool& pool, long keep, long& dropped) {
   for (void* item = pool.deaditemstack; item != nullptr; item = *static_cast<void**>(item), ++depth) {
     if (depth >= keep) continue;
     const long slot = slotOf(item);
-    if (slot < 0) return 0;  // not a layout we know: leave the pool as it is
+    if (slot < 0) return {};  // not a layout we know: leave the pool as it is
     stack.push_back(slot);
   }
   dropped += depth - static_cast<long>(stack.size());
@@ -150,7 +159,12 @@ long compactDeadStack(tetgenmesh::memorypool& pool, long keep, long& dropped) {
     entry->shver = -1;
     pool.dealloc(entry);
   }
-  return static_cast<long>(stack.size());
+  return {static_cast<long>(stack.size()), depth > static_cast<long>(stack.size())};
+}
+
+// Entries a compacted pool took beyond its kept slots (see Compaction).
+long outgrown(const tetgenmesh::memorypool* pool, const Compaction& c) {
+  return pool && c.truncated && pool->maxitems > c.kept ? pool->maxitems - c.kept : 0;
 }
 
 // Owns TetGen's refinement queues (its own delaunayrefinement leaks them
@@ -191,9 +205,9 @@ long refine(tetgenmesh& m, long& dropped) {
   for (entry.sh = m.shellfacetraverse(m.subsegs); entry.sh != nullptr; entry.sh = m.shellfacetraverse(m.subsegs))
     m.enqueuesubface(m.badsubsegs, &entry);
   m.repairencsegs(1);
-  long kept = 0;
+  Compaction segments, subfaces;
   if (b.reflevel > 1) {
-    kept = compactDeadStack(*m.badsubsegs, kQueueSlots, dropped);
+    segments = compactDeadStack(*m.badsubsegs, kQueueSlots, dropped);
     m.badsubfacs = new tetgenmesh::memorypool(sizeof(tetgenmesh::face), b.shellfaceperblock, sizeof(void*), 0);
     m.subfaces->traversalinit();
     for (entry.sh = m.shellfacetraverse(m.subfaces); entry.sh != nullptr;
@@ -201,16 +215,12 @@ long refine(tetgenmesh& m, long& dropped) {
       m.enqueuesubface(m.badsubfacs, &entry);
     m.repairencfacs(2);
   }
-  long grown = 0;
-  if (kept > 0 && m.badsubsegs->maxitems > kept) {
-    grown += m.badsubsegs->maxitems - kept;
-    kept = 0;
-  }
+  long grown = outgrown(m.badsubsegs, segments);
   if (b.reflevel > 2) {
-    // Bad tets (chkencflag 4), with both boundary queues compacted.
-    if (kept == 0) kept = compactDeadStack(*m.badsubsegs, kQueueSlots, dropped);
-    const long keptFaces = m.badsubfacs ? compactDeadStack(*m.badsubfacs, kQueueSlots, dropped) : 0;
-    const long segmentsBefore = m.badsubsegs->maxitems, facesBefore = m.badsubfacs ? m.badsubfacs->maxitems : 0;
+    // Bad tets (chkencflag 4), with both boundary queues compacted (again,
+    // for the segments': that keeps what the subface phase left on it).
+    segments = compactDeadStack(*m.badsubsegs, kQueueSlots, dropped);
+    if (m.badsubfacs) subfaces = compactDeadStack(*m.badsubfacs, kQueueSlots, dropped);
     m.cosmindihed = std::cos(b.mindihedral / 180.0 * 3.14159265358979323846264338327950288419716939937510582);
     m.badtetrahedrons =
         new tetgenmesh::memorypool(sizeof(tetgenmesh::triface), b.tetrahedraperblock, sizeof(void*), 0);
@@ -219,9 +229,7 @@ long refine(tetgenmesh& m, long& dropped) {
     for (tet.tet = m.tetrahedrontraverse(); tet.tet != nullptr; tet.tet = m.tetrahedrontraverse())
       m.enqueuetetrahedron(&tet);
     m.repairbadtets(4);
-    // A compacted pool that had to take fresh slots ran deeper than `keep`.
-    if (kept > 0) grown += m.badsubsegs->maxitems - segmentsBefore;
-    if (keptFaces > 0) grown += m.badsubfacs->maxitems - facesBefore;
+    grown += outgrown(m.badsubsegs, segments) + outgrown(m.badsubfacs, subfaces);
   }
   return grown;
 }

@@ -70,9 +70,10 @@ struct TetrahedralizeOptions {
 /// What tetrahedralize() changed in the surface before meshing.
 struct TetrahedralizeStats {
   int capsFlipped = 0;  ///< edge flips made by flipCaps
-  /// Queue entries that TetGen's refinement took beyond the compacted
-  /// queues (TetrahedralizeOptions::tetgenDriver); 0 means the mesh is
-  /// the one TetGen's own tetrahedralize() makes.
+  /// Queue entries that TetGen's refinement took beyond the slots a
+  /// compacted queue kept, in a queue that dropped some
+  /// (TetrahedralizeOptions::tetgenDriver); 0 means the mesh is the one
+  /// TetGen's own tetrahedralize() makes.
   long queueSlotsGrown = 0;
   /// Dead queue slots the driver dropped (what TetGen's repair passes
   /// would have walked each time).
