@@ -83,9 +83,11 @@ std::string tetgenFailure(int code) {
 // (bunny00: 113k) and every subface in two memory pools and repairs them.
 // The pools keep their high-water mark: every later repair pass (one after
 // each tet circumcentre that encroaches on the boundary) walks all those
-// dead slots to find the few live ones. perf on bunny00 (`tetgen -pAq1.5`):
-// 31% of TetGen's 14 s in memorypool::traverse, nearly all of it under
-// repairencsegs/repairencfacs called from splittetrahedron.
+// dead slots to find the few live ones. perf on bunny00 (`tetgen -pAq1.5`,
+// 2026-12-06): 31% of TetGen's 14 s in memorypool::traverse, nearly all of
+// it under repairencsegs/repairencfacs called from splittetrahedron. With
+// the compaction below, `tet2spline mesh bunny00.off` took 11.8 s instead
+// of 18.2 (2026-12-07, another host), writing the same file.
 //
 // A pass visits the live entries in slot order, and a new entry takes the
 // slot on top of the pool's stack of dead slots. So once a pool is empty,

@@ -169,7 +169,7 @@ TEST(TetrahedralizeReal, MinimumDihedralAngleRemovesSlivers) {
 // refinement queues once they are empty (TetrahedralizeOptions::
 // tetgenDriver). That must not change the mesh: on real surfaces, with the
 // options the pipeline uses (exact boundary, the dihedral bound, a size
-// limit, the merged facets of CAD-like input, nested shells as regions),
+// limit, the merged facets of CAD-like input, an inner shell as a void),
 // the points and tets are bit for bit those of TetGen's own
 // tetrahedralize(), and the driver did drop dead queue slots.
 TEST(TetrahedralizeReal, QueueCompactionKeepsTetGensOwnMesh) {
