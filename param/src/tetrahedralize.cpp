@@ -97,8 +97,9 @@ std::string tetgenFailure(int code) {
 // are 0 .. keep-1, ranked as the old slots were, stacked in the old order.
 // As long as no more than `keep` entries are ever live at once, every pass
 // then visits the same entries in the same order, and TetGen makes the same
-// mesh bit for bit (tested against tetrahedralize() itself, and counted by
-// runTetGen: a pool that grew past `keep` is reported in the stats).
+// mesh bit for bit (tested against tetrahedralize() itself; a pool that
+// dropped slots and then grew past the ones it kept is counted in the
+// stats, see Compaction).
 // ---------------------------------------------------------------------------
 
 // What compactDeadStack did to a pool: the slots it kept, and whether it
@@ -115,7 +116,8 @@ struct Compaction {
 // `dropped`. A pool that is not empty stays as it is.
 Compaction compactDeadStack(tetgenmesh::memorypool& pool, long keep, long& dropped) {
   if (pool.items != 0 || pool.deaditemstack == nullptr) return {};
-  // The pool's blocks in traversal order, with their first item's address.
+  // The pool's blocks, numbered in traversal order, sorted by their first
+  // item's address (for slotOf's lookup).
   const auto firstItem = [&](void** block) {
     const auto align = static_cast<std::uintptr_t>(pool.alignbytes);
     const auto p = reinterpret_cast<std::uintptr_t>(block + 1);
