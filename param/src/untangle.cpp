@@ -27,6 +27,7 @@
 #include "colouring.h"
 #include "lbfgs.h"
 #include "max_min_barrier.h"
+#include "part_gradients.h"
 #include "sliding.h"
 #include "spd_solver.h"
 #include "tet2spline/param/topology.h"
@@ -910,7 +911,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   // The vertices' storage rank for the evaluation loop: in the order in
   // which the tets in spatial order first reach them (then the vertices of
   // no tet). The rows of a tet's corners in the copy of W that the loop
-  // reads, and their gradient slots, then lie close together in memory, as
+  // reads then lie close together in memory, as
   // the tet order alone does not make them (TetGen numbers its Steiner
   // points in insertion order). Only where the values are stored changes,
   // not which values are combined or in what order, so the map is bitwise
@@ -928,7 +929,6 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     for (int& r : storageRank)
       if (r < 0) r = next++;
   }
-  detail::CornerTerms cornerGrad(vt, storageRank);  // per corner: the energy's gradient with respect to its vertex
   std::vector<int> inRegion(static_cast<size_t>(nvx), -1);  // variable index of a free vertex
   int rings = options.relax ? -1 : options.rings;
   size_t previousFree = 0;
@@ -968,7 +968,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     // tets' gradients per region (~100 MB when all of bunny00's are active).
     const size_t na = active.size();
     std::vector<Eigen::Matrix<double, 3, 4>> activeGrad(na);
-    std::vector<std::array<int, 4>> activeVertices(na), activeSlots(na);
+    std::vector<std::array<int, 4>> activeVertices(na);
     std::vector<double> activeWeight(na);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, na, 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t a = r.begin(); a != r.end(); ++a) {
@@ -976,10 +976,18 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         activeGrad[a] = grad[static_cast<size_t>(t)];
         for (int k = 0; k < 4; ++k)  // (rows of rowMajorW)
           activeVertices[a][k] = storageRank[static_cast<size_t>(T(t, k))];
-        activeSlots[a] = cornerGrad.slots(t);
         activeWeight[a] = weight[t];
       }
     });
+    // The energy's gradient, summed part by part (part_gradients.h), its
+    // rows numbered by storage rank.
+    std::unique_ptr<detail::PartGradients> gradientParts;
+    {
+      std::vector<int> freeByRank(static_cast<size_t>(nvx), -1);
+      for (size_t k = 0; k < freeVerts.size(); ++k) freeByRank[static_cast<size_t>(storageRank[static_cast<size_t>(freeVerts[k])])] = static_cast<int>(k);
+      gradientParts = std::make_unique<detail::PartGradients>(activeVertices, freeByRank, freeVerts.size());
+    }
+    std::vector<double> partEnergy(gradientParts->parts());
     std::vector<double> det(active.size());
     double e0 = 1e-3;
     double eps = 1;
@@ -1030,7 +1038,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
       data.vertices = activeVertices.front().data();
       data.gradients = activeGrad.front().data();
       data.weights = activeWeight.data();
-      data.slots = activeSlots.front().data();
+      data.rows = gradientParts->rows();
       data.det = det.data();
       data.theta = options.theta;
     }
@@ -1046,35 +1054,38 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
           rowMajorW.row(storageRank[static_cast<size_t>(freeVerts[k])]) = W.row(freeVerts[k]);
         }
       });
-      data.terms = g ? cornerGrad.termData() : nullptr;
+      data.acc = g ? gradientParts->data() : nullptr;
       data.eps = eps;
-      const double E = tbb::parallel_deterministic_reduce(
-          tbb::blocked_range<size_t>(0, active.size(), 1024), 0.0,
-          [&](const tbb::blocked_range<size_t>& r, double sum) {
-            if (simdKernel) return simdKernel(data, r.begin(), r.end(), sum);
-            for (size_t a = r.begin(); a != r.end(); ++a) {
-              const auto& G = activeGrad[a];
-              const Eigen::Matrix3d J = detail::tetJacobian(rowMajorW, activeVertices[a], G);
-              det[a] = J.determinant();
-              Eigen::Matrix3d dJ;
-              sum += activeWeight[a] * detail::untangleEnergy(J, eps, options.theta, g ? &dJ : nullptr);
-              // column k: gradient with respect to vertex k
-              if (g) cornerGrad.setProductAt(activeSlots[a], activeWeight[a], dJ, G);
-            }
-            return sum;
-          },
-          std::plus<double>(), tbb::simple_partitioner());
+      // Part by part (each on one core; their sums in order, below).
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, gradientParts->parts(), 1), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t p = r.begin(); p != r.end(); ++p) {
+          if (g) gradientParts->zero(p);
+          const size_t begin = gradientParts->partBegin(p), end = gradientParts->partEnd(p);
+          if (simdKernel) {
+            partEnergy[p] = simdKernel(data, begin, end, 0.0);
+            continue;
+          }
+          double sum = 0;
+          for (size_t a = begin; a != end; ++a) {
+            const auto& G = activeGrad[a];
+            const Eigen::Matrix3d J = detail::tetJacobian(rowMajorW, activeVertices[a], G);
+            det[a] = J.determinant();
+            Eigen::Matrix3d dJ;
+            sum += activeWeight[a] * detail::untangleEnergy(J, eps, options.theta, g ? &dJ : nullptr);
+            // column k: gradient with respect to vertex k
+            if (g) gradientParts->addProduct(a, activeWeight[a], dJ, G);
+          }
+          partEnergy[p] = sum;
+        }
+      });
+      double E = 0;
+      for (double e : partEnergy) E += e;
       if (g) {
         tbb::parallel_for(tbb::blocked_range<size_t>(0, freeVerts.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
           for (size_t k = r.begin(); k != r.end(); ++k) {
-            // The unknowns in order (x, g, base in sequence), so the blocks of
-            // corner terms, in storage order, come cold: asked for ahead.
-            // Measured (bunny00, held phase): visiting the vertices in storage
-            // order instead was slower (reads of x and base out of order).
-            if (k + 8 < r.end()) cornerGrad.prefetch(freeVerts[k + 8]);
             const int v = freeVerts[k];
             Eigen::Vector3d s = Eigen::Vector3d::Zero();
-            cornerGrad.addTo(v, s);  // (every tet of a free vertex is active)
+            gradientParts->addTo(k, s);  // (every tet of a free vertex is active)
             const Eigen::Vector3d y = unknown(k) + precond[v] * x.segment<3>(3 * static_cast<Eigen::Index>(k));
             if (slide[v] == kSphere) {  // chain rule through y ↦ y/|y|
               s = detail::sphereGradient(y, s);

@@ -16,15 +16,17 @@ struct UntangleKernelData {
   const int* vertices = nullptr;      // 4 per tet: rows of `positions`
   const double* gradients = nullptr;  // 12 per tet: the reference gradients G, 3 × 4 column-major
   const double* weights = nullptr;    // 1 per tet
-  const int* slots = nullptr;         // 4 per tet: the corners' slots in `terms`
-  double* terms = nullptr;            // 3 per slot: column k of (w ∂e/∂J) G; null: no gradient
+  const int* rows = nullptr;          // 4 per tet: the corners' rows in `acc`
+  double* acc = nullptr;              // 4 per row, 32-byte aligned: column k of (w ∂e/∂J) G is added to
+                                      // corner k's row (the fourth double stays); null: no gradient
   double* det = nullptr;              // 1 per tet: det J
   double eps = 0, theta = 0;
 };
 
 /// Adds w·e(J) of tets [begin, end) to sum, one tet after the other (the
-/// scalar loop's order), and sets their det J and (with terms) their
-/// corners' gradient terms.
+/// scalar loop's order), sets their det J and (with acc) adds their corners'
+/// gradient terms to the corners' rows, tet after tet and corner after
+/// corner (PartGradients::addProduct's order and operations).
 using UntangleKernel = double (*)(const UntangleKernelData&, std::size_t begin, std::size_t end, double sum);
 
 /// The AVX2 loop, or null where the processor lacks AVX2, the build has no

@@ -104,9 +104,8 @@ double untangleKernelAvx2(const UntangleKernelData& d, std::size_t begin, std::s
     // from tet l: whole rows loaded and transposed in registers (a vertex's
     // 3 coordinates by a masked load: the last row has no fourth double),
     // where each lane's scalar was inserted one by one (12 + 12 four-way
-    // inserts per block); the corner terms leave the same way (a masked
-    // store: the slot's fourth double is another corner's, perhaps another
-    // thread's). Only where the values travel changes. Measured (`param` on
+    // inserts per block); the corner terms leave the same way (to rows of
+    // four doubles). Only where the values travel changes. Measured (`param` on
     // bunny00's TetGen mesh, alternating pairs, the same file): the final
     // untangling 32.1, 26.9 -> 29.3, 24.3 s (the loads alone), 26.0, 25.1
     // -> 24.5, 25.0 s (loads and stores); two later pairs against an older
@@ -158,7 +157,7 @@ double untangleKernelAvx2(const UntangleKernelData& d, std::size_t begin, std::s
       d.det[a0 + static_cast<std::size_t>(l)] = dets[l];
       sum += terms[l];
     }
-    if (!d.terms) continue;
+    if (!d.acc) continue;
     // cofactors K(r, ·) from rows r + 1 and r + 2
     V K[3][3];
     for (int row = 0; row < 3; ++row) {
@@ -171,16 +170,20 @@ double untangleKernelAvx2(const UntangleKernelData& d, std::size_t begin, std::s
     V wa[3][3];  // w ∂e/∂J
     for (int i = 0; i < 3; ++i)
       for (int l = 0; l < 3; ++l) wa[i][l] = w * (w1 * (J[i][l] * ga - K[i][l] * gb) + theta * K[i][l] * gk);
-    for (int k = 0; k < 4; ++k) {
-      // the corner's term per lane, transposed to (x, y, z, ·) rows and
-      // stored 3 doubles per slot
-      V out[4];
+    // the corners' terms per lane, transposed to (x, y, z, 0) rows, then
+    // added to the rows tet after tet, corner after corner (two lanes may
+    // share a vertex: the scalar loop's order keeps its sum's bits)
+    V out[4][4];  // out[k][l]
+    for (int k = 0; k < 4; ++k)
       transpose4((wa[0][0] * G[0][k] + wa[0][1] * G[1][k]) + wa[0][2] * G[2][k],
                  (wa[1][0] * G[0][k] + wa[1][1] * G[1][k]) + wa[1][2] * G[2][k],
-                 wa[2][0] * G[0][k] + (wa[2][1] * G[1][k] + wa[2][2] * G[2][k]), zero, out[0], out[1], out[2], out[3]);
-      for (int l = 0; l < n; ++l)
-        _mm256_maskstore_pd(d.terms + 3 * static_cast<std::size_t>(d.slots[4 * tet[l] + k]), xyz, out[l]);
-    }
+                 wa[2][0] * G[0][k] + (wa[2][1] * G[1][k] + wa[2][2] * G[2][k]), zero, out[k][0], out[k][1], out[k][2],
+                 out[k][3]);
+    for (int l = 0; l < n; ++l)
+      for (int k = 0; k < 4; ++k) {
+        double* row = d.acc + 4 * static_cast<std::size_t>(d.rows[4 * tet[l] + k]);
+        _mm256_store_pd(row, _mm256_load_pd(row) + out[k][l]);
+      }
   }
   return sum;
 }

@@ -1,6 +1,7 @@
 // The untangler's per-tet loop in AVX2 registers (param/src/untangle_kernel.h)
 // must give the scalar loop's bits: the energy's partial sums, det J and
-// every corner's gradient term, for inverted and positive tets, barriers
+// every corner's gradient term (added to its vertex's row in the same order),
+// for inverted and positive tets, barriers
 // from 10⁻¹⁶⁰ to 5, and ranges of any length (the spare lanes of a last
 // group of fewer than four must write nothing). (At ε = 10⁻¹⁶⁰ the inverted
 // tets' χ underflows, so their lanes take the scalar cube root; e is then
@@ -20,7 +21,7 @@
 #include <random>
 #include <vector>
 
-#include "../../param/src/spd_solver.h"
+#include "../../param/src/part_gradients.h"
 #include "../../param/src/untangle_energy.h"
 #include "test_data.h"
 #include "tet2spline/io/mesh_io.h"
@@ -66,11 +67,9 @@ TEST(UntangleKernel, SimdLoopGivesTheScalarLoopsBits) {
         (A * m.V.row(v).transpose()).transpose() + 0.6 * edge * Eigen::RowVector3d(u(rng), u(rng), u(rng));
   // The tets' data as the untangler lays it out: reference gradients scaled
   // per tet, weights, the corners' rows and slots.
-  const detail::VertexTets vt = detail::vertexTets(nv, m.T);
   std::vector<Eigen::Matrix<double, 3, 4>> G(static_cast<size_t>(nt));
-  std::vector<std::array<int, 4>> vertices(static_cast<size_t>(nt)), slots(static_cast<size_t>(nt));
+  std::vector<std::array<int, 4>> vertices(static_cast<size_t>(nt));
   std::vector<double> weights(static_cast<size_t>(nt));
-  detail::CornerTerms scalarTerms(vt, rank), simdTerms(vt, rank);
   int inverted = 0;
   for (Eigen::Index t = 0; t < nt; ++t) {
     const size_t s = static_cast<size_t>(t);
@@ -82,26 +81,33 @@ TEST(UntangleKernel, SimdLoopGivesTheScalarLoopsBits) {
     G[s] /= 1 + 0.5 * u(rng);
     weights[s] = t % 3 == 0 ? 1.0 : 1 + u(rng);
     for (int k = 0; k < 4; ++k) vertices[s][k] = rank[static_cast<size_t>(m.T(t, k))];
-    slots[s] = scalarTerms.slots(static_cast<int>(t));
     inverted += detail::tetJacobian(W, vertices[s], G[s]).determinant() <= 0;
   }
   ASSERT_GT(inverted, nt / 20);
   ASSERT_LT(inverted, nt / 2);
-  const size_t termCount = 4 * static_cast<size_t>(nt) * 3;
+  // Every fifth vertex held (its corners go to the parts' sinks).
+  std::vector<int> freeIndex(static_cast<size_t>(nv), -1);
+  int numFree = 0;
+  for (Eigen::Index v = 0; v < nv; ++v)
+    if (v % 5 != 0) freeIndex[static_cast<size_t>(v)] = numFree++;
+  detail::PartGradients scalarTerms(vertices, freeIndex, static_cast<size_t>(numFree)),
+      simdTerms(vertices, freeIndex, static_cast<size_t>(numFree));
+  ASSERT_GT(scalarTerms.parts(), 1u);
+  const size_t termCount = detail::PartGradients::kStride * scalarTerms.numRows();
   int specialChecked = 0;
   for (double eps : {1e-160, 1e-9, 1e-3, 0.3, 5.0})
     for (double theta : {0.0, 0.5}) {
       for (bool gradient : {true, false}) {
         std::vector<double> scalarDet(static_cast<size_t>(nt), -7.0), simdDet(static_cast<size_t>(nt), -7.0);
-        std::fill(scalarTerms.termData(), scalarTerms.termData() + termCount, -3.0);
-        std::fill(simdTerms.termData(), simdTerms.termData() + termCount, -3.0);
+        std::fill(scalarTerms.data(), scalarTerms.data() + termCount, -3.0);
+        std::fill(simdTerms.data(), simdTerms.data() + termCount, -3.0);
         detail::UntangleKernelData d;
         d.positions = W.data();
         d.vertices = vertices.data()->data();
         d.gradients = G.data()->data();
         d.weights = weights.data();
-        d.slots = slots.data()->data();
-        d.terms = gradient ? simdTerms.termData() : nullptr;
+        d.rows = simdTerms.rows();
+        d.acc = gradient ? simdTerms.data() : nullptr;
         d.det = simdDet.data();
         d.eps = eps, d.theta = theta;
         // Ranges of every length mod 4, and one left out (its tets' outputs untouched).
@@ -122,7 +128,7 @@ TEST(UntangleKernel, SimdLoopGivesTheScalarLoopsBits) {
             scalarDet[a] = J.determinant();
             Eigen::Matrix3d dJ;
             scalarSum += weights[a] * detail::untangleEnergy(J, eps, theta, gradient ? &dJ : nullptr);
-            if (gradient) scalarTerms.setProductAt(slots[a], weights[a], dJ, G[a]);
+            if (gradient) scalarTerms.addProduct(a, weights[a], dJ, G[a]);
           }
           const double simdSum = simd(d, begin, end, 0.25 * static_cast<double>(range));
           ASSERT_TRUE(sameBits(simdSum, scalarSum))
@@ -133,7 +139,7 @@ TEST(UntangleKernel, SimdLoopGivesTheScalarLoopsBits) {
         for (Eigen::Index t = 0; t < nt; ++t)
           ASSERT_TRUE(sameBits(simdDet[static_cast<size_t>(t)], scalarDet[static_cast<size_t>(t)])) << "tet " << t;
         for (size_t i = 0; i < termCount; ++i)
-          ASSERT_TRUE(sameBits(simdTerms.termData()[i], scalarTerms.termData()[i]))
+          ASSERT_TRUE(sameBits(simdTerms.data()[i], scalarTerms.data()[i]))
               << "eps " << eps << " theta " << theta << " term " << i;
         EXPECT_EQ(std::count(simdDet.begin(), simdDet.end(), -7.0), lengths[4]);  // the range left out
         if (eps < 1e-100 && gradient) {
@@ -179,4 +185,65 @@ TEST(UntangleKernel, UntanglingARealMeshIsBitwiseTheSameWithAndWithoutSimd) {
   ASSERT_EQ(simd.U.rows(), scalar.U.rows());
   for (Eigen::Index i = 0; i < simd.U.size(); ++i)
     ASSERT_TRUE(sameBits(simd.U.data()[i], scalar.U.data()[i])) << "coordinate " << i;
+}
+
+// The gradient's parts (param/src/part_gradients.h): every free vertex gets
+// the sum of its corners' terms over all the tets, whichever parts they fall
+// in, and held vertices' corners count nowhere. Tets of a real mesh in a
+// shuffled order, so that a vertex's tets fall in several parts.
+TEST(PartGradients, EveryFreeVertexGetsTheSumOfItsCornersTerms) {
+  const TetMesh m = tetrahedralize(readSurface(t2stest::cgalMesh("blobby")), {}, "blobby");
+  const Eigen::Index nv = m.V.rows(), nt = m.T.rows();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<size_t> order(static_cast<size_t>(nt));
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<std::array<int, 4>> vertices(order.size());
+  for (size_t a = 0; a < order.size(); ++a)
+    for (int k = 0; k < 4; ++k) vertices[a][k] = m.T(static_cast<Eigen::Index>(order[a]), k);
+  std::vector<int> freeIndex(static_cast<size_t>(nv), -1);
+  const Eigen::MatrixX3i F = boundaryFaces(m);
+  std::vector<char> held(static_cast<size_t>(nv), 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) held[static_cast<size_t>(F(f, k))] = 1;
+  int numFree = 0;
+  for (Eigen::Index v = 0; v < nv; ++v)
+    if (!held[static_cast<size_t>(v)]) freeIndex[static_cast<size_t>(v)] = numFree++;
+  detail::PartGradients parts(vertices, freeIndex, static_cast<size_t>(numFree));
+  ASSERT_GT(parts.parts(), 2u);
+  // Rows touched by several parts: more rows than free vertices plus sinks.
+  EXPECT_GT(parts.numRows(), static_cast<size_t>(numFree) + parts.parts());
+  std::vector<Eigen::Vector3d> expected(static_cast<size_t>(nv), Eigen::Vector3d::Zero());
+  std::vector<double> scale(static_cast<size_t>(nv), 0.0);
+  for (size_t p = 0; p < parts.parts(); ++p) parts.zero(p);
+  for (size_t a = 0; a < vertices.size(); ++a) {
+    Eigen::Matrix3d A;
+    Eigen::Matrix<double, 3, 4> G;
+    for (int i = 0; i < 9; ++i) A.data()[i] = u(rng);
+    for (int i = 0; i < 12; ++i) G.data()[i] = u(rng);
+    const double w = 1 + u(rng);
+    parts.addProduct(a, w, A, G);
+    const Eigen::Matrix<double, 3, 4> terms = (w * A) * G;
+    for (int k = 0; k < 4; ++k) {
+      expected[static_cast<size_t>(vertices[a][k])] += terms.col(k);
+      scale[static_cast<size_t>(vertices[a][k])] += terms.col(k).norm();
+    }
+  }
+  for (Eigen::Index v = 0; v < nv; ++v) {
+    const int f = freeIndex[static_cast<size_t>(v)];
+    if (f < 0) continue;
+    Eigen::Vector3d s = Eigen::Vector3d::Zero();
+    parts.addTo(static_cast<size_t>(f), s);
+    ASSERT_LE((s - expected[static_cast<size_t>(v)]).norm(), 1e-13 * scale[static_cast<size_t>(v)]) << "vertex " << v;
+  }
+  // Each part zeroes its own rows only.
+  const size_t stride = detail::PartGradients::kStride;
+  std::fill(parts.data(), parts.data() + stride * parts.numRows(), 1.0);
+  parts.zero(1);
+  const long zeros = std::count(parts.data(), parts.data() + stride * parts.numRows(), 0.0);
+  EXPECT_GT(zeros, 0);
+  EXPECT_LT(static_cast<size_t>(zeros), stride * parts.numRows() / 2);
+  for (int k = 0; k < 4; ++k)
+    EXPECT_EQ(parts.data()[stride * static_cast<size_t>(parts.rows()[4 * parts.partBegin(1) + static_cast<size_t>(k)])], 0.0);
 }
