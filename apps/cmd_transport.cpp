@@ -51,6 +51,7 @@ Command addTransportCommand(CLI::App& app) {
             setPath(j, "ot.step_sizes", r.stepSizes);
             setPath(j, "ot.merged_points", r.mergedPoints);
             setPath(j, "ot.converged", r.status.ok);
+            setPath(j, "ot.stalled_above_tolerance", r.stalledAboveTolerance);
             double tri = 0, clip = 0, lin = 0, total = r.startSeconds;
             for (const auto& s : r.iterationStats) {
               tri += s.triangulationSeconds, clip += s.clippingSeconds, lin += s.linearSolveSeconds;
@@ -71,6 +72,10 @@ Command addTransportCommand(CLI::App& app) {
               out.commit();
             }
             if (!o->report.empty()) writeJson(j, o->report);
+            if (r.stalledAboveTolerance)
+              log.stage("warning", "the transport stopped at a largest relative cell-mass error of " +
+                                       std::to_string(r.maxRelativeMassError) + ", above the tolerance " +
+                                       std::to_string(o->tolerance) + ": no Newton step reduced it further");
             log.stage("transport", std::to_string(r.iterations) + " Newton iterations, max relative mass error " +
                                        std::to_string(r.maxRelativeMassError) + "; wrote " + o->output);
             return 0;

@@ -113,6 +113,7 @@ void addParamReport(json& j, const ParamResult& r) {
     setPath(j, "ot.step_sizes", r.ot.stepSizes);
     setPath(j, "ot.merged_points", r.ot.mergedPoints);
     setPath(j, "ot.solver_switches", r.ot.solverSwitches);
+    setPath(j, "ot.stalled_above_tolerance", r.ot.stalledAboveTolerance);
     setPath(j, "ot.linear_solver", r.ot.linearSolver);
     setPath(j, "ot.amg_iterations", r.ot.amgIterations);
   }

@@ -566,6 +566,12 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
       switched();
       continue;
     }
+    if (!accepted && error <= options.stallAcceptFactor * options.maxRelativeMassError) {
+      result.iterationStats.push_back(stats);
+      result.stepSizes.push_back(0);
+      result.stalledAboveTolerance = true;  // (status stays success)
+      break;
+    }
     if (!accepted) {
       result.iterationStats.push_back(stats);
       result.stepSizes.push_back(0);

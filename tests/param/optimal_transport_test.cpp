@@ -375,3 +375,31 @@ TEST(OptimalTransport, BadInputThrowsNamingTheCause) {
     EXPECT_NE(std::string(e.what()).find("logNewtonHalvings"), std::string::npos) << e.what();
   }
 }
+
+// Below the precision that the cells' volumes are computed to, no Newton
+// step reduces the error: a tolerance of 1e-18 stalls after every fallback
+// (CHOLMOD, the relative merit, ψ in two doubles). Within stallAcceptFactor
+// of the tolerance the transport ends there, successful and flagged, with
+// the masses reached to that error; with a factor of 1 it fails as before.
+TEST(OptimalTransport, StallJustAboveTheToleranceEndsFlaggedOrFails) {
+  const Eigen::MatrixX3d y = randomPoints(500, 21);
+  const Eigen::VectorXd nu = randomMasses(500, 22);
+  OptimalTransportOptions o;
+  o.maxRelativeMassError = 1e-18;
+  o.stallAcceptFactor = 1e8;
+  const auto r = solveOptimalTransport(y, nu, Domain::unitCube(), o);
+  ASSERT_TRUE(r.status.ok) << r.status.message;
+  EXPECT_TRUE(r.stalledAboveTolerance);
+  EXPECT_GT(r.maxRelativeMassError, o.maxRelativeMassError);
+  EXPECT_LE(r.maxRelativeMassError, o.stallAcceptFactor * o.maxRelativeMassError);
+  EXPECT_GE(r.solverSwitches, 3);
+  for (int i = 0; i < r.cellVolumes.size(); ++i)
+    EXPECT_LE(std::abs(r.cellVolumes[i] - r.masses[i]), r.maxRelativeMassError * r.masses[i] * (1 + 1e-9)) << i;
+  o.stallAcceptFactor = 1;
+  const auto failed = solveOptimalTransport(y, nu, Domain::unitCube(), o);
+  EXPECT_FALSE(failed.status.ok);
+  EXPECT_FALSE(failed.stalledAboveTolerance);
+  EXPECT_NE(failed.status.message.find("line search failed"), std::string::npos) << failed.status.message;
+  // Converged runs are not flagged.
+  EXPECT_FALSE(solveOptimalTransport(y, nu, Domain::unitCube()).stalledAboveTolerance);
+}

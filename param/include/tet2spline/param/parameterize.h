@@ -314,6 +314,9 @@ struct ParamResult {
     double maxRelativeMassError = 0;
     std::vector<double> stepSizes;
     int mergedPoints = 0;
+    /// Ended just above the tolerance, every fallback's search failed
+    /// (optimal_transport.h, stallAcceptFactor); a warning says so.
+    bool stalledAboveTolerance = false;
     int solverSwitches = 0;             ///< CG tightenings, switches to the AMG, to CHOLMOD and to the relative merit (optimal_transport.h)
     int amgIterations = 0;              ///< Newton iterations whose system was solved with the AMG cycle
     double triangulationSeconds = 0, clippingSeconds = 0, assemblySeconds = 0, linearSolveSeconds = 0;
