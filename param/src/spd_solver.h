@@ -81,7 +81,9 @@ inline VertexTets vertexTets(Eigen::Index numVertices, const Eigen::MatrixX4i& T
 /// gradients through a tet index took 26% of the run's samples; storing
 /// them per corner took the final untangling from 44.0 and 42.5 s to 32.7
 /// and 36.1 s (two runs each), and bunny00's from 298 s to 238 s, with
-/// bitwise the same maps.
+/// bitwise the same maps. (The untangler has since moved to summing part by
+/// part, part_gradients.h, which halved its time per tet on bunny00; the
+/// barrier morph still sums through these slots.)
 class CornerTerms {
  public:
   explicit CornerTerms(const VertexTets& vt)

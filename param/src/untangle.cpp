@@ -911,9 +911,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   // The vertices' storage rank for the evaluation loop: in the order in
   // which the tets in spatial order first reach them (then the vertices of
   // no tet). The rows of a tet's corners in the copy of W that the loop
-  // reads then lie close together in memory, as
-  // the tet order alone does not make them (TetGen numbers its Steiner
-  // points in insertion order). Only where the values are stored changes,
+  // reads then lie close together in memory, as the tet order alone does
+  // not make them (TetGen numbers its Steiner points in insertion order).
+  // Only where the values are stored changes,
   // not which values are combined or in what order, so the map is bitwise
   // the one without it (a renumbering of the vertices themselves changes
   // the order of L-BFGS's sums, hence the path: branch
@@ -984,7 +984,8 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     std::unique_ptr<detail::PartGradients> gradientParts;
     {
       std::vector<int> freeByRank(static_cast<size_t>(nvx), -1);
-      for (size_t k = 0; k < freeVerts.size(); ++k) freeByRank[static_cast<size_t>(storageRank[static_cast<size_t>(freeVerts[k])])] = static_cast<int>(k);
+      for (size_t k = 0; k < freeVerts.size(); ++k)
+        freeByRank[static_cast<size_t>(storageRank[static_cast<size_t>(freeVerts[k])])] = static_cast<int>(k);
       gradientParts = std::make_unique<detail::PartGradients>(activeVertices, freeByRank, freeVerts.size());
     }
     std::vector<double> partEnergy(gradientParts->parts());
