@@ -104,8 +104,9 @@ struct OptimalTransportOptions {
   double maxRelativeMassError = 1e-6;  ///< stop when max_i |g_i|/ν_i is below
   int maxNewtonIterations = 100;
   int maxStepHalvings = 40;            ///< line search gives up below step 2^-maxStepHalvings
-  /// When the line search has failed with every fallback (CHOLMOD, the
-  /// relative merit, ψ in two doubles) and the largest relative mass error
+  /// When the line search has failed with every fallback that applies
+  /// (CHOLMOD; below a relative error of 1e-3 also the relative merit and ψ
+  /// in two doubles, see the .cpp) and the largest relative mass error
   /// is at most this many times maxRelativeMassError, the transport ends
   /// there, successful, with OptimalTransportResult::stalledAboveTolerance
   /// set, instead of failing; 1 (or less) = fail. The volumes of sliver-thin
