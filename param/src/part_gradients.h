@@ -20,6 +20,8 @@
 #include <new>
 #include <vector>
 
+#include "untangle_energy.h"
+
 namespace tet2spline::detail {
 
 class PartGradients {
@@ -87,19 +89,15 @@ class PartGradients {
     std::fill(acc_.get() + kStride * static_cast<size_t>(partRow_[p]), acc_.get() + kStride * static_cast<size_t>(partRow_[p + 1]),
               0.0);
   }
-  /// Adds active tet a's corner terms, column k of (w·A)·G to corner k's
-  /// row, corners in order. The sums in the order of the 3 × 4 product the
-  /// energy's loop has always used (rows 0 and 1 as (x0 + x1) + x2, row 2 as
-  /// x0 + (x1 + x2)); untangle_kernel.h's loop does the same operations.
+  /// Adds active tet a's corner terms (cornerTerms, untangle_energy.h) to
+  /// its corners' rows, corner after corner; untangle_kernel.h's loop does
+  /// the same operations.
   void addProduct(size_t a, double w, const Eigen::Matrix3d& A, const Eigen::Matrix<double, 3, 4>& G) {
-    double wa[3][3];
-    for (int i = 0; i < 3; ++i)
-      for (int l = 0; l < 3; ++l) wa[i][l] = w * A(i, l);
+    double term[4][3];
+    cornerTerms(w, A, G, term);
     for (int k = 0; k < 4; ++k) {
       double* out = acc_.get() + kStride * static_cast<size_t>(rows_[4 * a + static_cast<size_t>(k)]);
-      out[0] += (wa[0][0] * G(0, k) + wa[0][1] * G(1, k)) + wa[0][2] * G(2, k);
-      out[1] += (wa[1][0] * G(0, k) + wa[1][1] * G(1, k)) + wa[1][2] * G(2, k);
-      out[2] += wa[2][0] * G(0, k) + (wa[2][1] * G(1, k) + wa[2][2] * G(2, k));
+      for (int d = 0; d < 3; ++d) out[d] += term[k][d];
     }
   }
   /// Adds free vertex f's rows to s, part by part in order.
