@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include <Eigen/CholmodSupport>
+#include <tet2spline/param/openmp_threads.h>
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
@@ -164,6 +165,7 @@ class BlockHessian {
     };
     double maxDiag = 0;
     for (Eigen::Index i = 0; i < n; ++i) maxDiag = std::max(maxDiag, diag(i));
+    runOpenMpRegionsOnCallingThread();  // (CHOLMOD's teams of four: openmp_threads.h)
     for (double shift = 1e-10 * maxDiag, added = 0; shift < 1e-1 * maxDiag; shift *= 1e3) {
       for (Eigen::Index i = 0; i < n; ++i) diag(i) += shift - added;
       added = shift;

@@ -1,6 +1,7 @@
 // Damped Newton for semi-discrete optimal transport (Kitagawa, Mérigot,
 // Thibert, JEMS 2019), on top of power_diagram.cpp.
 #include "tet2spline/param/optimal_transport.h"
+#include "tet2spline/param/openmp_threads.h"
 
 #include "aggregation_amg.h"
 
@@ -445,6 +446,7 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
         break;
       }
       case OtLinearSolver::Cholmod:
+        runOpenMpRegionsOnCallingThread();  // (CHOLMOD's teams of four: openmp_threads.h)
         cholmod.compute(L);
         solved = cholmod.info() == Eigen::Success;
         if (solved) d = cholmod.solve(rhs);

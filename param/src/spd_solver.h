@@ -5,6 +5,7 @@
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <tet2spline/param/openmp_threads.h>
 #include <array>
 #include <memory>
 #include <string>
@@ -18,6 +19,7 @@ class SpdSolver {
  public:
   /// Factorises the symmetric positive definite A; false if both solvers fail.
   bool compute(const Eigen::SparseMatrix<double>& A) {
+    runOpenMpRegionsOnCallingThread();  // (CHOLMOD's teams of four: openmp_threads.h)
     cholmod_ = std::make_unique<Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>>>();
     cholmod_->cholmod().print = 0;  // library code prints nothing: a failure falls back, then reports
     cholmod_->compute(A);
@@ -38,6 +40,7 @@ class SpdSolver {
   /// is no such analysis or the numeric factorisation fails.
   bool refactorize(const Eigen::SparseMatrix<double>& A) {
     if (!cholmod_ || cholmod_->rows() != A.rows()) return compute(A);
+    runOpenMpRegionsOnCallingThread();
     cholmod_->factorize(A);
     if (cholmod_->info() == Eigen::Success) return true;
     return compute(A);

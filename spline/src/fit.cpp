@@ -13,6 +13,8 @@
 // iteration at 8^3 with 1180 free control points.
 #include <tet2spline/spline/fit.h>
 
+#include <tet2spline/param/openmp_threads.h>
+
 #include "fit_costs.h"
 #include "parallel_chunks.h"
 
@@ -451,6 +453,7 @@ LinearOutcome solveCholmod(const Problem& pb, int threads) {
   const auto t1 = Clock::now();
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
   llt.cholmod().print = 0;  // library code prints nothing; failures become a Status
+  runOpenMpRegionsOnCallingThread();  // (CHOLMOD's teams of four: tet2spline/param/openmp_threads.h)
   llt.compute(A);
   if (llt.info() != Eigen::Success) {
     out.status = Status::failure(
@@ -561,6 +564,7 @@ LinearOutcome solveCeresLinear(const Problem& pb, int threads) {
   ceres::Solver::Options o = solverOptions(threads, 10);
   o.initial_trust_region_radius = 1e12;  // the problem is linear: take the Gauss-Newton step
   ceres::Solver::Summary summary;
+  runOpenMpRegionsOnCallingThread();  // (Ceres factorises with CHOLMOD in this thread)
   ceres::Solve(o, &problem, &summary);
   out.solve = since(t1);
   out.iterations = static_cast<int>(summary.iterations.size());
@@ -861,6 +865,7 @@ ValidityOutcome enforceValidity(const Problem& pb, BSplineVolume& V, const FitOp
       o.function_tolerance = 1e-7;
       o.parameter_tolerance = 1e-9;
       ceres::Solver::Summary summary;
+      runOpenMpRegionsOnCallingThread();  // (Ceres factorises with CHOLMOD in this thread)
       ceres::Solve(o, &problem, &summary);
       out.solverIterations += static_cast<int>(summary.iterations.size());
     }

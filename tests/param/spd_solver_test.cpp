@@ -3,15 +3,20 @@
 // must give the same bits as a fresh factorisation of that matrix (the
 // spherical map's area correction relies on it to stay bitwise what it was),
 // and must fall back to a fresh one when the pattern's size differs.
-// Also the per-corner gradient terms (CornerTerms) the barrier morph sums.
+// Also the per-corner gradient terms (CornerTerms) the barrier morph sums,
+// and CHOLMOD's OpenMP teams run on the calling thread
+// (tet2spline/param/openmp_threads.h).
 #include "../../param/src/spd_solver.h"
 
+#include <dlfcn.h>
 #include <gtest/gtest.h>
+#include <tet2spline/param/openmp_threads.h>
 
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "test_data.h"
@@ -82,6 +87,43 @@ TEST(SpdSolver, RefactorizingTheSamePatternGivesTheBitsOfAFreshFactorisation) {
   ASSERT_TRUE(reused.refactorize(smaller));
   const Eigen::MatrixXd r = rhs.topRows(smaller.rows());
   EXPECT_LT((smaller * reused.solve(r) - r).norm(), 1e-8 * r.norm());
+}
+
+// With CHOLMOD's OpenMP regions on the calling thread, the supernodal factor
+// is the same bits as with its default teams (the maps may not change), and
+// the setting holds for the calling thread only (so the library makes it in
+// whichever thread factorises).
+TEST(SpdSolver, OpenMpRegionsOnTheCallingThreadGiveTheSameFactor) {
+  using GetLevels = int (*)();
+  const auto maxActiveLevels = reinterpret_cast<GetLevels>(dlsym(RTLD_DEFAULT, "omp_get_max_active_levels"));
+  ASSERT_NE(maxActiveLevels, nullptr) << "CHOLMOD's OpenMP runtime is not loaded";
+  const TetMesh m = tetrahedralize(readSurface(t2stest::cgalMesh("blobby")), {}, "blobby");
+  const Eigen::SparseMatrix<double> A = interiorBlock(m.V, m);
+  ASSERT_GT(A.rows(), 1000);
+  const Eigen::MatrixXd rhs = Eigen::MatrixXd::Random(A.rows(), 2);
+  // Each solve in a thread of its own, so that neither inherits the other's setting.
+  auto solveIn = [&](bool serial, int& levels) {
+    Eigen::MatrixXd x;
+    std::thread worker([&] {
+      if (serial) {
+        EXPECT_TRUE(runOpenMpRegionsOnCallingThread());
+      }
+      levels = maxActiveLevels();
+      Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>> llt;
+      llt.compute(A);
+      ASSERT_EQ(llt.info(), Eigen::Success);
+      x = llt.solve(rhs);
+    });
+    worker.join();
+    return x;
+  };
+  int teamLevels = -1, serialLevels = -1;
+  const Eigen::MatrixXd teams = solveIn(false, teamLevels), serial = solveIn(true, serialLevels);
+  EXPECT_GT(teamLevels, 0);  // a fresh thread keeps the runtime's default
+  EXPECT_EQ(serialLevels, 0);
+  ASSERT_EQ(teams.rows(), A.rows());
+  EXPECT_EQ((teams - serial).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_LT((A * serial - rhs).norm(), 1e-8 * rhs.norm());
 }
 
 // A matrix that is not positive definite: CHOLMOD fails, the LDLT fallback
