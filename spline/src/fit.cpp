@@ -15,6 +15,7 @@
 
 #include <tet2spline/param/openmp_threads.h>
 
+#include "element_jacobians.h"
 #include "fit_costs.h"
 #include "parallel_chunks.h"
 
@@ -132,61 +133,19 @@ void tensorGradient(const Layout& L, const std::array<DirectionTable, 3>& T, con
 /// J = [x_u x_v x_w] at every Gauss point of element ei, J[ga + ng_u (gb +
 /// ng_v gc)], Pe (nloc × 3) its control points in local order: the sums of
 /// (G · Pe)ᵀ with G from tensorGradient, factorised direction by direction
-/// (contract a, then b, then c: about 6·10³ multiply-adds per element at
-/// degree 3 against 3.4·10⁴ point by point). Measured on homer's fit (16³,
-/// degree 3, 44k points): point by point, tensorGradient and Eigen's
-/// dynamic-size 3×64×3 product took 36% and 47% of the profile, and the fit
-/// 23.4 s; the sums fused per point 8.6 s; per element 4.8 s.
-void elementJacobians(const Layout& L, const std::array<DirectionTable, 3>& T, const std::array<int, 3>& ei,
-                      const Eigen::MatrixX3d& Pe, std::vector<Eigen::Matrix3d>& J) {
-  const int pa = L.deg[0] + 1, pb = L.deg[1] + 1, pc = L.deg[2] + 1;
-  const int na = T[0].ng, nb = T[1].ng, nc = T[2].ng;
-  thread_local std::vector<Eigen::Vector3d> A, B;
-  // A[(k·na + ga)·pb·pc + b + pb·c] = Σ_a N_a^(k)(u_ga) P_abc, k = value, derivative.
-  A.resize(static_cast<size_t>(2 * na * pb * pc));
-  for (int c = 0; c < pc; ++c)
-    for (int b = 0; b < pb; ++b)
-      for (int ga = 0; ga < na; ++ga) {
-        Eigen::Vector3d s0 = Eigen::Vector3d::Zero(), s1 = Eigen::Vector3d::Zero();
-        for (int a = 0; a < pa; ++a) {
-          const Eigen::Vector3d p = Pe.row(a + pa * (b + pb * c)).transpose();
-          s0 += T[0].der(ei[0], ga, 0, a) * p;
-          s1 += T[0].der(ei[0], ga, 1, a) * p;
-        }
-        A[static_cast<size_t>(ga * pb * pc + b + pb * c)] = s0;
-        A[static_cast<size_t>((na + ga) * pb * pc + b + pb * c)] = s1;
-      }
-  // B[(k·na·nb + ga + na·gb)·pc + c], k = 0: N_u N_v, 1: N_u' N_v, 2: N_u N_v'.
-  B.resize(static_cast<size_t>(3 * na * nb * pc));
-  for (int c = 0; c < pc; ++c)
-    for (int gb = 0; gb < nb; ++gb)
-      for (int ga = 0; ga < na; ++ga) {
-        Eigen::Vector3d t0 = Eigen::Vector3d::Zero(), t1 = Eigen::Vector3d::Zero(), t2 = Eigen::Vector3d::Zero();
-        for (int b = 0; b < pb; ++b) {
-          const double Nv = T[1].der(ei[1], gb, 0, b), dNv = T[1].der(ei[1], gb, 1, b);
-          const Eigen::Vector3d& a0 = A[static_cast<size_t>(ga * pb * pc + b + pb * c)];
-          const Eigen::Vector3d& a1 = A[static_cast<size_t>((na + ga) * pb * pc + b + pb * c)];
-          t0 += Nv * a0;
-          t1 += Nv * a1;
-          t2 += dNv * a0;
-        }
-        const int at = ga + na * gb;
-        B[static_cast<size_t>(at * pc + c)] = t0;
-        B[static_cast<size_t>((na * nb + at) * pc + c)] = t1;
-        B[static_cast<size_t>((2 * na * nb + at) * pc + c)] = t2;
-      }
-  J.resize(static_cast<size_t>(na * nb * nc));
-  for (int gc = 0; gc < nc; ++gc)
-    for (int at = 0; at < na * nb; ++at) {
-      Eigen::Matrix3d& j = J[static_cast<size_t>(at + na * nb * gc)];
-      j.setZero();
-      for (int c = 0; c < pc; ++c) {
-        const double Nw = T[2].der(ei[2], gc, 0, c), dNw = T[2].der(ei[2], gc, 1, c);
-        j.col(0) += Nw * B[static_cast<size_t>((na * nb + at) * pc + c)];
-        j.col(1) += Nw * B[static_cast<size_t>((2 * na * nb + at) * pc + c)];
-        j.col(2) += dNw * B[static_cast<size_t>(at * pc + c)];
-      }
-    }
+/// (element_jacobians.h). Measured on homer's fit (16³, degree 3, 44k
+/// points): point by point, tensorGradient and Eigen's dynamic-size 3×64×3
+/// product took 36% and 47% of the profile, and the fit 23.4 s; the sums
+/// fused per point 8.6 s; per element 4.8 s.
+void elementJacobians(const std::array<DirectionTable, 3>& T, const std::array<int, 3>& ei, const Eigen::MatrixX3d& Pe,
+                      std::vector<Eigen::Matrix3d>& J) {
+  std::array<detail::ElementBasis1D, 3> B;
+  for (int d = 0; d < 3; ++d) {
+    const DirectionTable& t = T[static_cast<size_t>(d)];
+    const int e = ei[static_cast<size_t>(d)];
+    B[static_cast<size_t>(d)] = {t.p + 1, t.ng, t.k + 1, &t.ders[static_cast<size_t>(e * t.ng * (t.k + 1) * (t.p + 1))]};
+  }
+  detail::elementJacobians(B, Pe, J);
 }
 
 /// det J (and scaled Jacobian) at all Gauss points of all elements.
@@ -212,7 +171,7 @@ GaussJacobians gaussJacobians(const BSplineVolume& V, const Layout& L, const std
       L.localControls(el, idx);
       for (int l = 0; l < L.nloc; ++l) Pe.row(l) = P.row(idx[l]);
       const auto ei = L.elementIndex(el);
-      elementJacobians(L, T, ei, Pe, Js);
+      elementJacobians(T, ei, Pe, Js);
       int g = 0;
       for (int gc = 0; gc < T[2].ng; ++gc)
         for (int gb = 0; gb < T[1].ng; ++gb)
@@ -611,6 +570,7 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
     const double floor = 0.1;
     for (size_t k = 0; k < free_.size(); ++k)
       s_[static_cast<Eigen::Index>(k)] = std::sqrt(std::max(A_.coeff(free_[k], free_[k]), floor * mean));
+    splitDataTerm();
   }
   int NumParameters() const override { return static_cast<int>(3 * free_.size()); }
   /// x from the current control points, and back.
@@ -641,17 +601,26 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
     scatter(x);
     const Eigen::Index nc = A_.rows();
     const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> P(P_.data(), nc, 3);
-    const Eigen::MatrixX3d AP = A_ * P;
-    double data = 0;
-    for (int c = 0; c < 3; ++c) data += 0.5 * P.col(c).dot(AP.col(c)) - b_.col(c).dot(P.col(c));
-    // Penalties, in parallel chunks, reduced in a fixed order (deterministic).
+    const Eigen::Index nf = static_cast<Eigen::Index>(free_.size());
+    Eigen::MatrixX3d Pf(nf, 3), APf(nf, 3);
+    for (Eigen::Index k = 0; k < nf; ++k) Pf.row(k) = P.row(free_[static_cast<size_t>(k)]);
+    // Each thread: its share of the rows of A_ff·p_f, then its share of the
+    // penalised elements; the parts are reduced in a fixed order
+    // (deterministic).
     std::vector<double> partCost(static_cast<size_t>(threads_), 0.0);
     std::vector<Eigen::MatrixX3d> partGrad(static_cast<size_t>(threads_));
-    parallelChunks(threads_, static_cast<long>(pen_.size()), [&](long pb, long pe, int t) {
+    const long npen = static_cast<long>(pen_.size());
+    parallelChunks(threads_, threads_, [&](long t, long, int) {
+      for (Eigen::Index i = nf * t / threads_; i < nf * (t + 1) / threads_; ++i) {
+        Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+        for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(Aff_, i); it; ++it)
+          sum += it.value() * Pf.row(it.col());
+        APf.row(i) = sum;
+      }
       Eigen::MatrixX3d& g = partGrad[static_cast<size_t>(t)];
       if (gradient) g = Eigen::MatrixX3d::Zero(nc, 3);
       Eigen::Matrix3Xd G;
-      for (long k = pb; k < pe; ++k) {
+      for (long k = npen * t / threads_; k < npen * (t + 1) / threads_; ++k) {
         const ElementPenalty& q = pen_[static_cast<size_t>(k)];
         forEachPoint(q, P, [&](const Eigen::Matrix3d& J, double scale, int ga, int gb, int gc) {
           const double d = J.determinant();
@@ -669,22 +638,64 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
         });
       }
     });
+    double data = fixedData_;
+    for (int c = 0; c < 3; ++c) data += Pf.col(c).dot(0.5 * APf.col(c) + q_.col(c));
     double pen = 0;
     for (double c : partCost) pen += c;
     *cost = data + pen;
     if (gradient) {
-      Eigen::MatrixX3d G = AP - b_;
+      Eigen::MatrixX3d G = APf + q_;
       for (const auto& g : partGrad)
-        if (g.size() > 0) G += g;
-      for (size_t k = 0; k < free_.size(); ++k)
-        for (int c = 0; c < 3; ++c) gradient[3 * k + c] = G(free_[k], c) / s_[static_cast<Eigen::Index>(k)];
+        if (g.size() > 0)
+          for (Eigen::Index k = 0; k < nf; ++k) G.row(k) += g.row(free_[static_cast<size_t>(k)]);
+      for (Eigen::Index k = 0; k < nf; ++k)
+        for (int c = 0; c < 3; ++c) gradient[3 * k + c] = G(k, c) / s_[k];
     }
     return std::isfinite(*cost);
   }
 
  private:
+  /// The data term over the free control points f, the others (c) fixed:
+  /// ½ pᵀAp − bᵀp = ½ p_fᵀA_ff p_f + p_fᵀ(A_fc p_c − b_f) + (½ p_cᵀA_cc p_c − b_cᵀp_c),
+  /// with Aff_ = A_ff, q_ = A_fc p_c − b_f and fixedData_ the last term.
+  /// Measured on bunny00's fit (16³, 2995 of 6859 control points free):
+  /// the full product A·P was 1.5 s of the 6.6 s stage (474 evaluations,
+  /// 2.35M entries, on one core); A_ff·p_f takes 1.7 ms an evaluation on
+  /// one core, and is now split over the threads by rows. (The constant
+  /// term changes the cost's rounding, so L-BFGS took 481 iterations
+  /// instead of 431; the stage 6.6 -> 3.0 s with the loop of
+  /// element_jacobians.h.)
+  void splitDataTerm() {
+    const Eigen::Index nc = A_.rows();
+    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> P(P_.data(), nc, 3);
+    std::vector<int> freeIndex(static_cast<size_t>(nc), -1);
+    for (size_t k = 0; k < free_.size(); ++k) freeIndex[static_cast<size_t>(free_[k])] = static_cast<int>(k);
+    const Eigen::Index nf = static_cast<Eigen::Index>(free_.size());
+    std::vector<Eigen::Triplet<double>> ff;
+    q_ = Eigen::MatrixX3d::Zero(nf, 3);
+    double fixedQuadratic = 0;
+    for (Eigen::Index j = 0; j < nc; ++j)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(A_, j); it; ++it) {
+        const int fi = freeIndex[static_cast<size_t>(it.row())], fj = freeIndex[static_cast<size_t>(j)];
+        if (fi >= 0 && fj >= 0) ff.emplace_back(fi, fj, it.value());
+        else if (fi >= 0) q_.row(fi) += it.value() * P.row(j);
+        else if (fj < 0) fixedQuadratic += it.value() * P.row(it.row()).dot(P.row(j));
+      }
+    Aff_.resize(nf, nf);
+    Aff_.setFromTriplets(ff.begin(), ff.end());
+    fixedData_ = 0.5 * fixedQuadratic;
+    for (Eigen::Index i = 0; i < nc; ++i) {
+      const int fi = freeIndex[static_cast<size_t>(i)];
+      if (fi >= 0) q_.row(fi) -= b_.row(i);
+      else fixedData_ -= b_.row(i).dot(P.row(i));
+    }
+  }
+
   const Eigen::SparseMatrix<double>& A_;
   const Eigen::MatrixX3d& b_;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> Aff_;
+  Eigen::MatrixX3d q_;
+  double fixedData_ = 0;
   std::vector<double>& P_;
   /// Calls f(J, scale, ga, gb, gc) at each penalised Gauss point (ga, gb, gc) of q.
   template <class F>
@@ -693,7 +704,7 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
     Eigen::MatrixX3d Pe(static_cast<Eigen::Index>(q.idx.size()), 3);
     for (size_t l = 0; l < q.idx.size(); ++l) Pe.row(static_cast<Eigen::Index>(l)) = P.row(q.idx[l]);
     thread_local std::vector<Eigen::Matrix3d> J;
-    elementJacobians(L_, T_, q.ei, Pe, J);
+    elementJacobians(T_, q.ei, Pe, J);
     size_t g = 0;
     for (int gc = 0; gc < T_[2].ng; ++gc)
       for (int gb = 0; gb < T_[1].ng; ++gb)
