@@ -10,6 +10,8 @@
 #include <limits>
 #include <numeric>
 #include <optional>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "cube_map.h"
 #include "tet2spline/param/barrier_morph.h"
@@ -176,12 +178,19 @@ CubePlacement placeOnCube(const Eigen::MatrixX3d& sites, const Eigen::VectorXd& 
     std::vector<double> sumT(near.size(), 0);
     std::vector<int> local(static_cast<size_t>(nv), -1);
     for (size_t k = 0; k < near.size(); ++k) local[static_cast<size_t>(near[k])] = static_cast<int>(k);
+    // The samples' owners on both cores (bunny00: 3303 samples an edge
+    // against ~2200 nearby cells, 0.75 s on one core), counted in order.
+    std::vector<int> sampleOwner(static_cast<size_t>(samples));
+    tbb::parallel_for(tbb::blocked_range<int>(0, samples, 64), [&](const tbb::blocked_range<int>& r) {
+      for (int s = r.begin(); s != r.end(); ++s) {
+        Eigen::Vector3d x = edge.origin;
+        x(edge.axis) = (s + 0.5) / samples;
+        sampleOwner[static_cast<size_t>(s)] = owner(x, near);
+      }
+    });
     for (int s = 0; s < samples; ++s) {
       const double t = (s + 0.5) / samples;
-      Eigen::Vector3d x = edge.origin;
-      x(edge.axis) = t;
-      const int i = owner(x, near);
-      const int k = local[static_cast<size_t>(i)];
+      const int k = local[static_cast<size_t>(sampleOwner[static_cast<size_t>(s)])];
       ++count[static_cast<size_t>(k)];
       sumT[static_cast<size_t>(k)] += t;
     }
