@@ -336,12 +336,21 @@ TetCutFaces clippedTetBoundary(const Eigen::MatrixX3d& V, const Eigen::MatrixX4i
       entries.push_back({key, int(4 * t + k)});
     }
   }
-  std::sort(entries.begin(), entries.end(),
-            [](const Entry& a, const Entry& b) { return a.key != b.key ? a.key < b.key : a.index < b.index; });
+  // (keys compared entry by entry: std::array's operators went through
+  // memcmp calls, a quarter of the report's rendering time on bunny00)
+  auto sameKey = [](const Entry& a, const Entry& b) {
+    return a.key[0] == b.key[0] && a.key[1] == b.key[1] && a.key[2] == b.key[2];
+  };
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    if (a.key[0] != b.key[0]) return a.key[0] < b.key[0];
+    if (a.key[1] != b.key[1]) return a.key[1] < b.key[1];
+    if (a.key[2] != b.key[2]) return a.key[2] < b.key[2];
+    return a.index < b.index;
+  });
   std::vector<int> boundary;
   for (size_t i = 0; i < entries.size();) {
     size_t j = i + 1;
-    while (j < entries.size() && entries[j].key == entries[i].key) ++j;
+    while (j < entries.size() && sameKey(entries[j], entries[i])) ++j;
     if (j == i + 1) boundary.push_back(entries[i].index);
     i = j;
   }
