@@ -114,6 +114,13 @@ double projectOntoFace(const BSplineSurface& S, const Eigen::Vector3d& q, double
     const double det = A.determinant();
     if (!(std::fabs(det) > 1e-300)) break;
     const Eigen::Vector2d step = -A.inverse() * g;
+    // A step that would move the point by less than 10⁻¹⁰ of the scale
+    // (|q| + distance) is not tried: near convergence each such trial and its
+    // halvings cost up to seven evaluations for a change far below the
+    // reported digits. Measured on bunny00's fit (340k surface samples): 4.5M
+    // -> 2.5M evaluations, the Hausdorff distances the same to the last digit
+    // and the mean 4·10⁻¹⁸ apart.
+    if ((Ss * step[0] + St * step[1]).norm() <= 1e-10 * (q.norm() + best)) break;
     double h = 1.0;
     bool improved = false;
     for (int k = 0; k < 6 && !improved; ++k, h *= 0.5) {
