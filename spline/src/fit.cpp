@@ -137,6 +137,7 @@ void tensorGradient(const Layout& L, const std::array<DirectionTable, 3>& T, con
 /// points): point by point, tensorGradient and Eigen's dynamic-size 3×64×3
 /// product took 36% and 47% of the profile, and the fit 23.4 s; the sums
 /// fused per point 8.6 s; per element 4.8 s.
+/// T holds first derivatives (k >= 1: the quality tables).
 void elementJacobians(const std::array<DirectionTable, 3>& T, const std::array<int, 3>& ei, const Eigen::MatrixX3d& Pe,
                       std::vector<Eigen::Matrix3d>& J) {
   std::array<detail::ElementBasis1D, 3> B;
