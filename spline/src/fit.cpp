@@ -557,7 +557,7 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
   ValidityObjective(const Eigen::SparseMatrix<double>& Afull, const Eigen::MatrixX3d& rhs, std::vector<double>& Pflat,
                     std::vector<long> freeCtrl, std::vector<ElementPenalty> penalties, const Layout& L,
                     const std::array<DirectionTable, 3>& T, double tau, int threads)
-      : A_(Afull), b_(rhs), P_(Pflat), free_(std::move(freeCtrl)), pen_(std::move(penalties)), L_(L), T_(T), tau_(tau),
+      : A_(Afull), P_(Pflat), free_(std::move(freeCtrl)), pen_(std::move(penalties)), L_(L), T_(T), tau_(tau),
         threads_(std::max(1, threads)) {
     // Jacobi scaling, floored: control points that the data hardly reach
     // (cut-off cube corners) would otherwise take the longest steps.
@@ -571,7 +571,7 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
     const double floor = 0.1;
     for (size_t k = 0; k < free_.size(); ++k)
       s_[static_cast<Eigen::Index>(k)] = std::sqrt(std::max(A_.coeff(free_[k], free_[k]), floor * mean));
-    splitDataTerm();
+    splitDataTerm(rhs);
   }
   int NumParameters() const override { return static_cast<int>(3 * free_.size()); }
   /// x from the current control points, and back.
@@ -666,7 +666,7 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
   /// term changes the cost's rounding, so L-BFGS took 481 iterations
   /// instead of 431; the stage 6.6 -> 3.0 s with the loop of
   /// element_jacobians.h.)
-  void splitDataTerm() {
+  void splitDataTerm(const Eigen::MatrixX3d& b) {
     const Eigen::Index nc = A_.rows();
     const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> P(P_.data(), nc, 3);
     std::vector<int> freeIndex(static_cast<size_t>(nc), -1);
@@ -687,13 +687,12 @@ class ValidityObjective final : public ceres::FirstOrderFunction {
     fixedData_ = 0.5 * fixedQuadratic;
     for (Eigen::Index i = 0; i < nc; ++i) {
       const int fi = freeIndex[static_cast<size_t>(i)];
-      if (fi >= 0) q_.row(fi) -= b_.row(i);
-      else fixedData_ -= b_.row(i).dot(P.row(i));
+      if (fi >= 0) q_.row(fi) -= b.row(i);
+      else fixedData_ -= b.row(i).dot(P.row(i));
     }
   }
 
   const Eigen::SparseMatrix<double>& A_;
-  const Eigen::MatrixX3d& b_;
   Eigen::SparseMatrix<double, Eigen::RowMajor> Aff_;
   Eigen::MatrixX3d q_;
   double fixedData_ = 0;
