@@ -72,10 +72,7 @@ Command addTransportCommand(CLI::App& app) {
               out.commit();
             }
             if (!o->report.empty()) writeJson(j, o->report);
-            if (r.stalledAboveTolerance)
-              log.stage("warning", "the transport stopped at a largest relative cell-mass error of " +
-                                       std::to_string(r.maxRelativeMassError) + ", above the tolerance " +
-                                       std::to_string(o->tolerance) + ": no Newton step reduced it further");
+            if (r.stalledAboveTolerance) log.stage("warning", stalledTransportWarning(r, o->tolerance));
             log.stage("transport", std::to_string(r.iterations) + " Newton iterations, max relative mass error " +
                                        std::to_string(r.maxRelativeMassError) + "; wrote " + o->output);
             return 0;

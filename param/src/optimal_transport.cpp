@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <sstream>
 
@@ -626,6 +627,19 @@ OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, con
     result.cellVolumes[i] = pd.volumes[m] * (result.masses[i] / nu[m]);
   }
   return result;
+}
+
+std::string stalledTransportWarning(const OptimalTransportResult& result, double tolerance) {
+  if (!result.stalledAboveTolerance) return {};
+  auto format = [](double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    return std::string(buf);
+  };
+  return "the transport stopped at a largest relative cell-mass error of " + format(result.maxRelativeMassError) +
+         ", above the tolerance " + format(tolerance) +
+         ": no Newton step reduced it further (ot.stalled_above_tolerance; the smallest cells' volumes are not "
+         "computed more precisely than that)";
 }
 
 }  // namespace tet2spline

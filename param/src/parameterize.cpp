@@ -852,11 +852,7 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       r.ot.solverSwitches = transport.solverSwitches;
       r.ot.stalledAboveTolerance = transport.stalledAboveTolerance;
       if (transport.stalledAboveTolerance)
-        r.warnings.push_back("the transport stopped at a largest relative cell-mass error of " +
-                             formatDouble(transport.maxRelativeMassError) + ", above the tolerance " +
-                             formatDouble(ot.maxRelativeMassError) +
-                             ": no Newton step reduced it further (ot.stalled_above_tolerance; the smallest cells' "
-                             "volumes are not computed more precisely than that)");
+        r.warnings.push_back(stalledTransportWarning(transport, ot.maxRelativeMassError));
       for (const auto& s : transport.iterationStats) {
         r.ot.triangulationSeconds += s.triangulationSeconds;
         r.ot.clippingSeconds += s.clippingSeconds;

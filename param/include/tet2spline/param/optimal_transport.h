@@ -191,6 +191,11 @@ struct OptimalTransportResult {
 OptimalTransportResult solveOptimalTransport(const Eigen::MatrixX3d& points, const Eigen::VectorXd& masses,
                                              const Domain& domain, const OptimalTransportOptions& options = {});
 
+/// The warning for a transport that ended by stallAcceptFactor
+/// (result.stalledAboveTolerance): its error, the tolerance asked and the
+/// report key; empty when it did not end so.
+std::string stalledTransportWarning(const OptimalTransportResult& result, double tolerance);
+
 /// The Hessian H of the Kantorovich dual at the diagram `diagram` of `points`
 /// (#N × N, symmetric, negative semi-definite, rows summing to zero):
 /// H_ij = ½(a_ij + a_ji) / (2|y_i − y_j|) with a_ij the facet area seen from
