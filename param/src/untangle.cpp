@@ -1145,25 +1145,29 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
             const FreeVertex& f = freeInfo[j];
             Eigen::Vector3d s = Eigen::Vector3d::Zero();
             gradientParts->addTo(j, s);  // (every tet of a free vertex is active)
-            const Eigen::Vector3d y = f.base + f.precond * x.segment<3>(3 * static_cast<Eigen::Index>(f.k));
-            if (f.slide == kSphere) {  // chain rule through y ↦ y/|y|
-              s = detail::sphereGradient(y, s);
-            } else if (f.slide == kCubeRadial) {  // chain rule through the ray's exit point
-              const detail::CubeRay r = cubeRay(y);
-              s = r.extent > 0 ? detail::cubeRayGradient(r, s) : Eigen::Vector3d::Zero();
-            } else if (f.slide == kCube) {  // chain rule through the lock and the clamp
-              // Beyond a bound the clamp makes E flat in that coordinate; at
-              // a bound that descent would push further out its derivative
-              // is one-sided, so it is held there (active set, as in
-              // L-BFGS-B). Measured: without the second, Newton steps pushed
-              // vertices into the cube's faces and no step decreased E.
-              for (int d = 0; d < 3; ++d)
-                if ((f.locks >> d) & 1 || y[d] < 0 || y[d] > 1 ||
-                    (holdAtBounds && ((y[d] == 0 && s[d] > 0) || (y[d] == 1 && s[d] < 0))))
-                  s[d] = 0;
-            } else if (clampIn) {  // interior: beyond a face the clamp makes E flat
-              for (int d = 0; d < 3; ++d)
-                if (y[d] < 0 || y[d] > 1) s[d] = 0;
+            // (The unknowns only where a constraint needs them: an interior
+            // vertex's chain rule is the identity.)
+            if (f.slide != kInterior || clampIn) {
+              const Eigen::Vector3d y = f.base + f.precond * x.segment<3>(3 * static_cast<Eigen::Index>(f.k));
+              if (f.slide == kSphere) {  // chain rule through y ↦ y/|y|
+                s = detail::sphereGradient(y, s);
+              } else if (f.slide == kCubeRadial) {  // chain rule through the ray's exit point
+                const detail::CubeRay r = cubeRay(y);
+                s = r.extent > 0 ? detail::cubeRayGradient(r, s) : Eigen::Vector3d::Zero();
+              } else if (f.slide == kCube) {  // chain rule through the lock and the clamp
+                // Beyond a bound the clamp makes E flat in that coordinate; at
+                // a bound that descent would push further out its derivative
+                // is one-sided, so it is held there (active set, as in
+                // L-BFGS-B). Measured: without the second, Newton steps pushed
+                // vertices into the cube's faces and no step decreased E.
+                for (int d = 0; d < 3; ++d)
+                  if ((f.locks >> d) & 1 || y[d] < 0 || y[d] > 1 ||
+                      (holdAtBounds && ((y[d] == 0 && s[d] > 0) || (y[d] == 1 && s[d] < 0))))
+                    s[d] = 0;
+              } else if (clampIn) {  // interior: beyond a face the clamp makes E flat
+                for (int d = 0; d < 3; ++d)
+                  if (y[d] < 0 || y[d] > 1) s[d] = 0;
+              }
             }
             g->segment<3>(3 * static_cast<Eigen::Index>(f.k)) = f.precond * s;
           }
