@@ -129,6 +129,19 @@ std::vector<int> elementRegions(const BSplineVolume& volume, const Eigen::Matrix
                                 const Eigen::VectorXi& region) {
   if (region.size() != T.rows())
     usage("elementRegions", std::to_string(region.size()) + " region tags for " + std::to_string(T.rows()) + " tets");
+  // One region (the common case): every element is in it, and the locator
+  // (per-tet inverses and buckets: 0.6 s on bunny00's 767k tets, on one
+  // core) would only confirm it. Its checks stay.
+  if (region.size() > 0 && (region.array() == region[0]).all()) {
+    const char* who = "elementRegions";
+    checkMesh(who, U.rows(), T);
+    if (!U.allFinite()) usage(who, "non-finite parameters");
+    const double diag = (U.colwise().maxCoeff() - U.colwise().minCoeff()).cwiseMax(1e-300).norm();
+    for (Eigen::Index t = 0; t < T.rows(); ++t)  // (the locator's test of a usable tet)
+      if (std::fabs(tetVolume(U, T, t)) * 6 > 1e-14 * diag * diag * diag)
+        return std::vector<int>(volume.elements().size(), region[0]);
+    usage(who, "every tet's parameter image is degenerate");
+  }
   const ParameterLocator locator(U, T);
   const std::vector<BezierElement> elements = volume.elements();
   std::vector<int> out(elements.size(), 0);

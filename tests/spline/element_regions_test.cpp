@@ -3,6 +3,7 @@
 // known exactly.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 #include "cube_param_meshes.h"
@@ -132,4 +133,27 @@ TEST(ElementRegions, RejectsMismatchedSizes) {
   EXPECT_THROW(elementRegions(S, parameters(m), m.T, Eigen::VectorXi::Ones(3)), Error);
   EXPECT_THROW(regionElementDensity({1}, m.V, parameters(m).topRows(3), m.T, m.region), Error);
   EXPECT_THROW(regionElementDensity(std::vector<int>(8, 7), m.V, parameters(m), m.T, m.region), Error);
+}
+
+// One region: every element is in it (without the locator), and the
+// locator's checks still hold: flat parameters, indices out of range and
+// non-finite parameters are refused.
+TEST(ElementRegions, OneRegionTagsEveryElementAndKeepsTheChecks) {
+  TetMesh m = kuhnCube(3, [](const Eigen::Vector3d& u) { return u; });
+  m.region.setConstant(5);
+  const Eigen::MatrixX3d U = parameters(m);
+  const BSplineVolume S = BSplineVolume::identity(KnotVector::uniform(2, 3), KnotVector::uniform(2, 4),
+                                                  KnotVector::uniform(2, 2));
+  const std::vector<int> reg = elementRegions(S, U, m.T, m.region);
+  ASSERT_EQ(reg.size(), S.elements().size());
+  for (int r : reg) EXPECT_EQ(r, 5);
+  Eigen::MatrixX3d flat = U;
+  flat.col(2).setZero();
+  EXPECT_THROW(elementRegions(S, flat, m.T, m.region), Error);
+  Eigen::MatrixX4i bad = m.T;
+  bad(0, 0) = static_cast<int>(U.rows());
+  EXPECT_THROW(elementRegions(S, U, bad, m.region), Error);
+  Eigen::MatrixX3d nan = U;
+  nan(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(elementRegions(S, nan, m.T, m.region), Error);
 }
