@@ -1007,8 +1007,9 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     // vertices in insertion order). Measured on bunny00 (`param` on its
     // TetGen mesh, alternating runs, the same file): the final untangling
     // 25.7, 26.2 -> 23.8, 20.7 s. (Sorting the unknowns themselves, which
-    // changes L-BFGS's sums, made another path: on one draw of the bench
-    // the first local repair then left 1540 tets instead of 15, 30 s more.)
+    // changes L-BFGS's sums, made other paths: on bunny00.off scaled by
+    // 1 + 10⁻⁹ the first local repair then left 1540 tets instead of 15,
+    // and the run took 30 s more.)
     std::vector<int> walk(freeVerts.size());  // walk[j]: the free index k of the j-th by rank
     for (size_t k = 0; k < freeVerts.size(); ++k) walk[k] = static_cast<int>(k);
     std::sort(walk.begin(), walk.end(), [&](int a, int b) {
