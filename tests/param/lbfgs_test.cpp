@@ -1,6 +1,8 @@
 // The untangler's L-BFGS (param/src/lbfgs.h) keeps its history in a ring
 // allocated once and runs its element-wise updates and its dot products
-// (in fixed chunks, added in order) on both cores above 65536 unknowns. Its iterates must be bitwise those of the plain two-loop
+// (in fixed chunks, added in order) on both cores above 65536 unknowns,
+// each update of the recursion in one pass with the dot product after it
+// (updateThenDot). Its iterates must be bitwise those of the plain two-loop
 // recursion on Eigen temporaries that it replaced (kept below as the
 // reference): the untangler's maps depend chaotically on the last bits.
 // Checked on a spring energy over a real mesh's edges (serial updates) and
