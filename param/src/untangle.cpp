@@ -50,6 +50,16 @@ UntangleKernel simdUntangleKernel() {
 #endif
 }
 
+BarrierSums simdBarrierSums() {
+#if defined(T2S_HAVE_AVX2_KERNEL)
+  const char* setting = std::getenv("TET2SPLINE_SIMD");
+  if (setting && std::string(setting) == "0") return nullptr;
+  return __builtin_cpu_supports("avx2") ? &barrierSumsAvx2 : nullptr;
+#else
+  return nullptr;
+#endif
+}
+
 }  // namespace detail
 
 namespace {
@@ -169,6 +179,13 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
     scaled.resize(m, n), ones = Eigen::VectorXd::Ones(m);
   }
   Eigen::LDLT<Eigen::MatrixXd> ldlt(n);
+  // A vertex's sums with one entry per AVX2 lane where the processor has
+  // them (untangle_kernel.h): the same operations per entry, so the same
+  // bits, with a quarter of the divisions' instructions. Measured alone
+  // (25 rows, 4 unknowns): 1.04 -> 0.37 s for 2M sums; the local repair on
+  // bunny00.off scaled by 1 + 2·10⁻⁹ (`param`, 190646 moves, 12944 -> 32
+  // tets): 13.2, 10.6 -> 10.8, 9.2 s in alternating runs, the same file.
+  static const BarrierSums simdSums = simdBarrierSums();
   auto slackInto = [&](const Eigen::VectorXd& y, Eigen::VectorXd& out) {
     if (sparse) {
       for (Eigen::Index i = 0; i < m; ++i) {
@@ -227,8 +244,14 @@ Eigen::VectorXd maxMinBarrier(const Eigen::MatrixXd& a, const Eigen::VectorXd& b
       } else {
         switch (n) {  // the sums in registers for a vertex's 2 to 4 unknowns
           case 2: barrierSums<2>(a, r, g, H); break;
-          case 3: barrierSums<3>(a, r, g, H); break;
-          case 4: barrierSums<4>(a, r, g, H); break;
+          case 3:
+            if (simdSums) simdSums(3, a.data(), m, r.data(), g.data(), H.data());
+            else barrierSums<3>(a, r, g, H);
+            break;
+          case 4:
+            if (simdSums) simdSums(4, a.data(), m, r.data(), g.data(), H.data());
+            else barrierSums<4>(a, r, g, H);
+            break;
           default: barrierSums<Eigen::Dynamic>(a, r, g, H);
         }
       }

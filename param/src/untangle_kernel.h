@@ -37,8 +37,20 @@ UntangleKernel simdUntangleKernel();
 /// hold a zero, subnormal, infinite, negative or NaN χ.
 double cubeRootOutOfLine(double x);
 
+/// The local repair's barrier sums for a vertex's n = 3 or 4 unknowns
+/// (untangle.cpp, barrierSums): over the rows j of `a` (m × n, column-major),
+/// g_p −= a_jp / r_j and H_pq += (a_jp a_jq) / r_j² for p >= q (H n × n,
+/// column-major; only its lower triangle is read and written), row after
+/// row. The AVX2 loop does each entry's operations in that order, one entry
+/// per lane: the scalar loop's bits.
+using BarrierSums = void (*)(int n, const double* a, std::ptrdiff_t m, const double* r, double* g, double* H);
+
+/// The AVX2 loop, or null (as simdUntangleKernel).
+BarrierSums simdBarrierSums();
+
 #if defined(T2S_HAVE_AVX2_KERNEL)
 double untangleKernelAvx2(const UntangleKernelData& d, std::size_t begin, std::size_t end, double sum);
+void barrierSumsAvx2(int n, const double* a, std::ptrdiff_t m, const double* r, double* g, double* H);
 #endif
 
 }  // namespace tet2spline::detail

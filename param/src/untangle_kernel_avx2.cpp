@@ -1,4 +1,5 @@
-// The untangler's per-tet loop, four tets per AVX2 register (untangle_kernel.h).
+// The untangler's per-tet loop, four tets per AVX2 register, and the local
+// repair's barrier sums, one entry per lane (untangle_kernel.h).
 // Compiled with -mavx2 -mno-fma -ffp-contract=off: each lane does the scalar
 // loop's IEEE operations in its order (no fused multiply-adds, no
 // reassociation), so the results are bitwise those of untangle_energy.h's
@@ -186,6 +187,37 @@ double untangleKernelAvx2(const UntangleKernelData& d, std::size_t begin, std::s
       }
   }
   return sum;
+}
+
+namespace {
+
+// barrierSumsAvx2 for N unknowns: the row's entries a_j0 .. a_j(N−1) in the
+// lanes (the rest zero, never stored); column q of H in register q.
+template <int N>
+void barrierSumsLanes(const double* a, std::ptrdiff_t m, const double* r, double* g, double* H) {
+  const I used = _mm256_setr_epi64x(-1, -1, -1, N == 4 ? -1 : 0);
+  V gs = _mm256_maskload_pd(g, used);
+  V hs[N];
+  for (int q = 0; q < N; ++q) hs[q] = _mm256_maskload_pd(H + q * N, used);
+  for (std::ptrdiff_t j = 0; j < m; ++j) {
+    const double rj = r[j], rr = rj * rj;
+    const V aj = _mm256_setr_pd(a[j], a[m + j], a[2 * m + j], N == 4 ? a[3 * m + j] : 0.0);
+    gs = gs - aj / splat(rj);
+    const V rrs = splat(rr);
+    for (int q = 0; q < N; ++q) hs[q] = hs[q] + (aj * splat(a[q * m + j])) / rrs;
+  }
+  _mm256_maskstore_pd(g, used, gs);
+  for (int q = 0; q < N; ++q) {  // rows p >= q of column q
+    const I lower = _mm256_setr_epi64x(q <= 0 ? -1 : 0, q <= 1 ? -1 : 0, q <= 2 ? -1 : 0, N == 4 ? -1 : 0);
+    _mm256_maskstore_pd(H + q * N, lower, hs[q]);
+  }
+}
+
+}  // namespace
+
+void barrierSumsAvx2(int n, const double* a, std::ptrdiff_t m, const double* r, double* g, double* H) {
+  if (n == 4) barrierSumsLanes<4>(a, m, r, g, H);
+  else barrierSumsLanes<3>(a, m, r, g, H);
 }
 
 }  // namespace tet2spline::detail

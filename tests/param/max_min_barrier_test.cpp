@@ -1,5 +1,6 @@
 // The local repair's max-min barrier (param/src/max_min_barrier.h) sums its
-// Hessian in registers for a vertex's 2 to 4 unknowns and carries each
+// Hessian in registers for a vertex's 2 to 4 unknowns (for 3 and 4 in AVX2
+// lanes where the processor has them, untangle_kernel.h) and carries each
 // accepted trial's slack and log sum into the next Newton iteration. Its
 // results must be bitwise those of the code it replaced (kept below as the
 // reference): the untangler's maps depend chaotically on the last bits.
