@@ -2,7 +2,8 @@
 // Internal: the untangler's per-tet loop (energy, det J and the corners'
 // gradient terms) over a range of active tets, four tets at a time in AVX2
 // registers, with the scalar loop's operations lane by lane: the same bits
-// (untangle.cpp's evaluate; untangle_energy.h has the formulas). No Eigen
+// (untangle.cpp's evaluate; untangle_energy.h has the formulas); and the
+// local repair's barrier sums, one entry per lane. No Eigen
 // and no inline code here: the AVX2 loop's translation unit is compiled with
 // -mavx2, and an inline function it instantiated could be the copy the
 // linker keeps for every caller, on a machine without AVX2 too.

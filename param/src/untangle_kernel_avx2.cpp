@@ -4,7 +4,8 @@
 // loop's IEEE operations in its order (no fused multiply-adds, no
 // reassociation), so the results are bitwise those of untangle_energy.h's
 // tetJacobian, untangleEnergy (Eigen's 3 × 3 determinant, cubeRoot) and
-// PartGradients::addProduct (part_gradients.h). Only intrinsics and this file's own static
+// PartGradients::addProduct (part_gradients.h), and of untangle.cpp's
+// barrierSums. Only intrinsics and this file's own static
 // functions: nothing with external or inline linkage that another
 // translation unit might share (see untangle_kernel.h).
 #if defined(T2S_HAVE_AVX2_KERNEL)
