@@ -40,11 +40,21 @@ namespace detail {
 
 double cubeRootOutOfLine(double x) { return cubeRoot(x); }
 
+#if defined(T2S_HAVE_AVX2_KERNEL)
+namespace {
+// Whether the AVX2 loops may run: the processor has AVX2 and the
+// environment does not set TET2SPLINE_SIMD=0.
+bool avx2LoopsEnabled() {
+  const char* setting = std::getenv("TET2SPLINE_SIMD");
+  if (setting && std::string(setting) == "0") return false;
+  return __builtin_cpu_supports("avx2");
+}
+}  // namespace
+#endif
+
 UntangleKernel simdUntangleKernel() {
 #if defined(T2S_HAVE_AVX2_KERNEL)
-  const char* setting = std::getenv("TET2SPLINE_SIMD");
-  if (setting && std::string(setting) == "0") return nullptr;
-  return __builtin_cpu_supports("avx2") ? &untangleKernelAvx2 : nullptr;
+  return avx2LoopsEnabled() ? &untangleKernelAvx2 : nullptr;
 #else
   return nullptr;
 #endif
@@ -52,9 +62,7 @@ UntangleKernel simdUntangleKernel() {
 
 BarrierSums simdBarrierSums() {
 #if defined(T2S_HAVE_AVX2_KERNEL)
-  const char* setting = std::getenv("TET2SPLINE_SIMD");
-  if (setting && std::string(setting) == "0") return nullptr;
-  return __builtin_cpu_supports("avx2") ? &barrierSumsAvx2 : nullptr;
+  return avx2LoopsEnabled() ? &barrierSumsAvx2 : nullptr;
 #else
   return nullptr;
 #endif
