@@ -42,6 +42,7 @@ double peakMemoryMB() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  tet2spline::apps::useHugePages(argv);
   tet2spline::apps::keepFreedMemory();
   long points = 180000;
   int elements = 16, degree = 3, threads = 2;

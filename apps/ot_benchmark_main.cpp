@@ -138,6 +138,7 @@ double peakRssMiB() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  tet2spline::apps::useHugePages(argv);
   tet2spline::apps::keepFreedMemory();
   std::vector<int> sizes = {10000, 100000, 181000};
   OptimalTransportOptions options;

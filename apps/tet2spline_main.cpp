@@ -13,6 +13,7 @@
 using namespace tet2spline;
 
 int main(int argc, char** argv) {
+  tet2spline::apps::useHugePages(argv);
   tet2spline::apps::keepFreedMemory();
   CLI::App app{"tet2spline: measure-controlled volumetric parameterization and trivariate B-spline fitting"};
   app.require_subcommand(1);
