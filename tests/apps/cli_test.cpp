@@ -192,3 +192,38 @@ TEST(Cli, UnusedVerticesOfAVolumeFileAreDropped) {
   EXPECT_NE(r.out.find("\"vertices\": 5"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("\"removed_unused_vertices\": 1"), std::string::npos) << r.out;
 }
+
+// The program runs itself once more with glibc's heap on transparent huge
+// pages (apps/allocator_tuning.h). Whatever the environment says about that
+// (the default, TET2SPLINE_HUGEPAGES=0, another glibc tunable set already),
+// the arguments reach it unchanged, a file name with a space in it among them,
+// and it writes the same mesh, prints the same report (but for its seconds),
+// and exits with the same status and one line for bad input.
+TEST(Cli, HugePageRerunKeepsArgumentsOutputAndExitStatus) {
+  const auto dir = t2stest::scratchDir("cli_hugepages");
+  const auto in = writeText(dir, "octa hedron.off", kOctahedron);
+  const auto bad = writeText(dir, "bad shape.off",
+                             "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 9\n3 0 2 3\n3 1 2 3\n");
+  const std::string cli = t2stest::q(t2stest::cliPath());
+  std::vector<std::string> meshes;
+  std::vector<nlohmann::json> reports;
+  for (const std::string env : {"", "TET2SPLINE_HUGEPAGES=0", "GLIBC_TUNABLES=glibc.malloc.tcache_count=0"}) {
+    SCOPED_TRACE(env.empty() ? "default environment" : env);
+    const std::string run = env + " " + cli + " ";
+    const auto out = dir / "octa.vtu";
+    fs::remove(out);
+    const auto m = t2stest::runProgram("/usr/bin/env", run + "mesh " + q(in) + " -o " + q(out) + " --quality 1.2", dir);
+    ASSERT_EQ(m.status, 0) << m.err;
+    meshes.push_back(t2stest::slurp(out));
+    const auto c = t2stest::runProgram("/usr/bin/env", run + "check --json " + q(out), dir);
+    ASSERT_EQ(c.status, 0) << c.err;
+    reports.push_back(nlohmann::json::parse(c.out));
+    reports.back().erase("seconds");  // (the only figure that may differ)
+    expectOneLineError(t2stest::runProgram("/usr/bin/env", run + "check " + q(bad), dir), 3, "bad shape.off:8",
+                       "out of range");
+  }
+  for (size_t k = 1; k < meshes.size(); ++k) {
+    EXPECT_EQ(meshes[k], meshes[0]) << k;
+    EXPECT_EQ(reports[k], reports[0]) << k;
+  }
+}
