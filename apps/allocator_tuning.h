@@ -51,17 +51,18 @@ inline void keepFreedMemory() {
 inline void useHugePages(char** argv) {
 #if defined(__GLIBC__) && defined(__linux__)
   if (const char* choice = std::getenv("TET2SPLINE_HUGEPAGES"); choice && std::strcmp(choice, "0") == 0) return;
-  const char* tunables = std::getenv("GLIBC_TUNABLES");
-  if (tunables && std::strstr(tunables, "glibc.malloc.hugetlb")) return;  // set already, or the re-run
+  const char* set = std::getenv("GLIBC_TUNABLES");
+  if (set && std::strstr(set, "glibc.malloc.hugetlb")) return;  // set already, or the re-run
+  const bool had = set != nullptr;
+  const std::string before = had ? set : "";  // (a copy: setenv may replace the string)
   std::ifstream mode("/sys/kernel/mm/transparent_hugepage/enabled");
   std::string line;
   if (!std::getline(mode, line) || line.find("[never]") != std::string::npos) return;
-  const std::string value =
-      (tunables && *tunables ? std::string(tunables) + ":" : std::string()) + "glibc.malloc.hugetlb=1";
+  const std::string value = (before.empty() ? std::string() : before + ":") + "glibc.malloc.hugetlb=1";
   if (::setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
   ::execv("/proc/self/exe", argv);
   // Not re-run: go on as we are, without leaving the tunable to child processes.
-  if (tunables) ::setenv("GLIBC_TUNABLES", tunables, 1);
+  if (had) ::setenv("GLIBC_TUNABLES", before.c_str(), 1);
   else ::unsetenv("GLIBC_TUNABLES");
 #else
   (void)argv;
