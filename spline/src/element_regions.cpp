@@ -23,21 +23,32 @@ void checkMesh(const char* who, Eigen::Index numVertices, const Eigen::MatrixX4i
     usage(who, "tet vertex index outside 0.." + std::to_string(numVertices - 1));
 }
 
-double tetVolume(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, Eigen::Index t) {
+// Tet t's edges from its first corner, as columns.
+Eigen::Matrix3d edgeMatrix(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, Eigen::Index t) {
   const Eigen::RowVector3d a = X.row(T(t, 0));
   Eigen::Matrix3d E;
-  E.col(0) = (X.row(T(t, 1)) - a).transpose();
-  E.col(1) = (X.row(T(t, 2)) - a).transpose();
-  E.col(2) = (X.row(T(t, 3)) - a).transpose();
-  return E.determinant() / 6.0;
+  for (int c = 0; c < 3; ++c) E.col(c) = (X.row(T(t, c + 1)) - a).transpose();
+  return E;
+}
+
+double tetVolume(const Eigen::MatrixX3d& X, const Eigen::MatrixX4i& T, Eigen::Index t) {
+  return edgeMatrix(X, T, t).determinant() / 6.0;
+}
+
+// The parameters' checks (indices, finite values) and the bar a tet's
+// |det E| must pass to be usable: 1e-14 of the parameter box's diagonal
+// cubed (slivers below it have no reliable inverse).
+double checkedUsableBar(const char* who, const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T) {
+  checkMesh(who, U.rows(), T);
+  if (!U.allFinite()) usage(who, "non-finite parameters");
+  const double diag = (U.colwise().maxCoeff() - U.colwise().minCoeff()).cwiseMax(1e-300).norm();
+  return 1e-14 * diag * diag * diag;
 }
 
 }  // namespace
 
 ParameterLocator::ParameterLocator(const Eigen::MatrixX3d& U, const Eigen::MatrixX4i& T) : U_(U), T_(T) {
-  const char* who = "ParameterLocator";
-  checkMesh(who, U.rows(), T);
-  if (!U.allFinite()) usage(who, "non-finite parameters");
+  const double usable = checkedUsableBar("ParameterLocator", U, T);
   const Eigen::Index nt = T.rows();
   inverse_.assign(static_cast<size_t>(nt), Eigen::Matrix3d::Zero());
   lo_ = U.colwise().minCoeff().transpose();
@@ -46,7 +57,6 @@ ParameterLocator::ParameterLocator(const Eigen::MatrixX3d& U, const Eigen::Matri
   // About two tets per bucket; at most 256 buckets per direction.
   const int m = std::clamp(static_cast<int>(std::cbrt(static_cast<double>(nt) / 2.0)), 1, 256);
   n_ = Eigen::Vector3i::Constant(m);
-  const double diag = ext.norm();
   std::vector<std::array<int, 6>> box(static_cast<size_t>(nt));
   first_.assign(static_cast<size_t>(n_.prod()) + 1, 0);
   auto cell = [&](double x, int d) {
@@ -54,12 +64,8 @@ ParameterLocator::ParameterLocator(const Eigen::MatrixX3d& U, const Eigen::Matri
   };
   for (Eigen::Index t = 0; t < nt; ++t) {
     const Eigen::RowVector3d a = U.row(T(t, 0));
-    Eigen::Matrix3d E;
-    for (int c = 0; c < 3; ++c) E.col(c) = (U.row(T(t, c + 1)) - a).transpose();
-    const double det = E.determinant();
-    // Relative to the size of the parameter box: slivers of volume below
-    // 1e-14 of it have no reliable inverse.
-    if (std::fabs(det) > 1e-14 * diag * diag * diag) inverse_[static_cast<size_t>(t)] = E.inverse();
+    const Eigen::Matrix3d E = edgeMatrix(U, T, t);
+    if (std::fabs(E.determinant()) > usable) inverse_[static_cast<size_t>(t)] = E.inverse();
     auto& b = box[static_cast<size_t>(t)];
     for (int d = 0; d < 3; ++d) {
       double mn = a[d], mx = a[d];
@@ -133,14 +139,11 @@ std::vector<int> elementRegions(const BSplineVolume& volume, const Eigen::Matrix
   // (per-tet inverses and buckets: 0.6 s on bunny00's 767k tets, on one
   // core) would only confirm it. Its checks stay.
   if (region.size() > 0 && (region.array() == region[0]).all()) {
-    const char* who = "elementRegions";
-    checkMesh(who, U.rows(), T);
-    if (!U.allFinite()) usage(who, "non-finite parameters");
-    const double diag = (U.colwise().maxCoeff() - U.colwise().minCoeff()).cwiseMax(1e-300).norm();
-    for (Eigen::Index t = 0; t < T.rows(); ++t)  // (the locator's test of a usable tet)
-      if (std::fabs(tetVolume(U, T, t)) * 6 > 1e-14 * diag * diag * diag)
-        return std::vector<int>(volume.elements().size(), region[0]);
-    usage(who, "every tet's parameter image is degenerate");
+    const double usable = checkedUsableBar("elementRegions", U, T);
+    for (Eigen::Index t = 0; t < T.rows(); ++t)
+      if (std::fabs(edgeMatrix(U, T, t).determinant()) > usable)
+        return std::vector<int>(static_cast<size_t>(volume.numElements().prod()), region[0]);
+    usage("elementRegions", "every tet's parameter image is degenerate");
   }
   const ParameterLocator locator(U, T);
   const std::vector<BezierElement> elements = volume.elements();
