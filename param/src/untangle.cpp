@@ -4,7 +4,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
 #include <tbb/partitioner.h>
 
 #include <Eigen/Dense>
@@ -18,7 +17,6 @@
 #include <cstdlib>
 #include <limits>
 #include <memory>
-#include <numeric>
 #include <string>
 #include <utility>
 #include <vector>
@@ -898,32 +896,50 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   // it, L-BFGS on a region whose edges span 10⁻⁸ .. 10⁻¹ (homer, triceratops)
   // spent thousands of iterations and still failed.
   Eigen::VectorXd precond = Eigen::VectorXd::Ones(nvx);
-  {
-    const double meanEdge = globalScale * std::sqrt(refSq / (6.0 * static_cast<double>(std::max<Eigen::Index>(nt, 1))));
-    // log |u_a − u_b| of each tet's six edges (kEdges), −∞ where the length
-    // is not positive; the vertices' sums below read them in the order in
-    // which they computed them, so the bits are the same. Measured on
-    // bunny00 (767k tets): computing them per vertex and corner (12 logs a
-    // tet, the tet's corners gathered through T per star) took 0.6 s of
-    // both cores in every untangle call, most of the set-up of the final
-    // untangling's later calls.
-    constexpr int kEdgeOf[4][4] = {{-1, 0, 1, 2}, {0, -1, 3, 4}, {1, 3, -1, 5}, {2, 4, 5, -1}};
-    constexpr double kNoEdge = -std::numeric_limits<double>::infinity();
-    std::vector<std::array<double, 6>> edgeLog(static_cast<size_t>(nt));
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, nt, 4096), [&](const tbb::blocked_range<Eigen::Index>& range) {
-      for (Eigen::Index t = range.begin(); t != range.end(); ++t)
+  // p_v is set for the vertices a region frees, when one first frees them
+  // (setPreconditioners, from U0 as before, so the same bits): no other
+  // vertex's is read. Measured on bunny00 (767k tets): every untangle call
+  // computed it for all 181k vertices, and the final untangling's finishing
+  // rounds make about ten calls whose regions free about a thousand
+  // (perf of that tail: this loop and the edge logs, 11% of its samples).
+  const double meanEdge = globalScale * std::sqrt(refSq / (6.0 * static_cast<double>(std::max<Eigen::Index>(nt, 1))));
+  // log |u_a − u_b| of each tet's six edges (kEdges), −∞ where the length
+  // is not positive, once per tet that a region makes active; the
+  // vertices' sums read them in the order in which they computed them, so
+  // the bits are the same. Measured on bunny00 (767k tets): computing them
+  // per vertex and corner (12 logs a tet, the tet's corners gathered through
+  // T per star) took 0.6 s of both cores for every vertex.
+  constexpr int kEdgeOf[4][4] = {{-1, 0, 1, 2}, {0, -1, 3, 4}, {1, 3, -1, 5}, {2, 4, 5, -1}};
+  constexpr double kNoEdge = -std::numeric_limits<double>::infinity();
+  std::vector<std::array<double, 6>> edgeLog;  // (allocated when the first region needs them)
+  std::vector<char> edgeLogSet, precondSet;
+  auto setPreconditioners = [&](const std::vector<int>& activeTets, const std::vector<int>& verts) {
+    if (edgeLog.empty()) {
+      edgeLog.resize(static_cast<size_t>(nt));
+      edgeLogSet.assign(static_cast<size_t>(nt), 0);
+      precondSet.assign(static_cast<size_t>(nvx), 0);
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, activeTets.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t a = range.begin(); a != range.end(); ++a) {
+        const int t = activeTets[a];
+        if (t >= nt || edgeLogSet[static_cast<size_t>(t)]) continue;
         for (int e = 0; e < 6; ++e) {
           // (the norm of b − a and of a − b are the same bits)
           const double len = (U0.row(T(t, kEdges[e][1])) - U0.row(T(t, kEdges[e][0]))).norm();
           edgeLog[static_cast<size_t>(t)][static_cast<size_t>(e)] = len > 0 ? std::log(len) : kNoEdge;
         }
+        edgeLogSet[static_cast<size_t>(t)] = 1;
+      }
     });
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, nv, 2048), [&](const tbb::blocked_range<Eigen::Index>& range) {
-      for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
+    // (every tet of a free vertex's star is active: the logs it reads are set)
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, verts.size(), 2048), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t i = range.begin(); i != range.end(); ++i) {
+        const int v = verts[i];
+        if (v >= nv || precondSet[static_cast<size_t>(v)]) continue;
         double logSum = 0, w = 0;
         int n = 0;
-        for (int e = vt.offset[v]; e < vt.offset[v + 1]; ++e) {
-          const int t = vt.corner[e] / 4, k = vt.corner[e] % 4;
+        for (int e = vt.offset[static_cast<size_t>(v)]; e < vt.offset[static_cast<size_t>(v) + 1]; ++e) {
+          const int t = vt.corner[static_cast<size_t>(e)] / 4, k = vt.corner[static_cast<size_t>(e)] % 4;
           if (t >= nt) continue;
           w += weight[t];
           for (int j = 0; j < 4; ++j)
@@ -934,9 +950,10 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
         }
         const double h = n > 0 ? std::exp(logSum / n) : meanEdge;
         precond[v] = w > 0 ? h / std::sqrt(w) : h;
+        precondSet[static_cast<size_t>(v)] = 1;
       }
     });
-  }
+  };
 
   // The tets in a spatial order (Morton order of their reference centroids;
   // cones by their face's, ties by index), sorted once: each region takes
@@ -950,12 +967,27 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
   // on the same paths as before (the same misplaced volume and fit error).
   std::vector<int> spatialOrder(static_cast<size_t>(ntx));
   {
+    // By key, ties by index: a stable radix sort (8-bit digits, least
+    // significant first) of the tets in index order, which is that order.
+    // Measured on bunny00 (767k tets; the final untangling's finishing
+    // rounds call untangle about ten times): the comparison sort was 6% of
+    // that tail's samples.
     const std::vector<std::uint64_t> key = mortonKeys(reference, T);
-    std::iota(spatialOrder.begin(), spatialOrder.end(), 0);
-    // (a total order: any sort gives the same sequence)
-    tbb::parallel_sort(spatialOrder.begin(), spatialOrder.end(), [&](int a, int b) {
-      return std::pair(key[static_cast<size_t>(a)], a) < std::pair(key[static_cast<size_t>(b)], b);
-    });
+    struct Keyed {
+      std::uint64_t key;
+      int tet;
+    };
+    std::vector<Keyed> keyed(static_cast<size_t>(ntx)), scattered(static_cast<size_t>(ntx));
+    for (size_t t = 0; t < keyed.size(); ++t) keyed[t] = {key[t], static_cast<int>(t)};
+    for (int shift = 0; shift < 64; shift += 8) {
+      std::array<size_t, 257> start{};
+      for (const Keyed& k : keyed) ++start[((k.key >> shift) & 0xff) + 1];
+      if (std::any_of(start.begin() + 1, start.end(), [&](size_t c) { return c == keyed.size(); })) continue;  // one digit
+      for (size_t d = 1; d < start.size(); ++d) start[d] += start[d - 1];
+      for (const Keyed& k : keyed) scattered[start[(k.key >> shift) & 0xff]++] = k;
+      keyed.swap(scattered);
+    }
+    for (size_t i = 0; i < keyed.size(); ++i) spatialOrder[i] = keyed[i].tet;
   }
   // The vertices' storage rank for the evaluation loop: in the order in
   // which the tets in spatial order first reach them (then the vertices of
@@ -1007,6 +1039,7 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     result.freeVertices = static_cast<int>(freeVerts.size());
     if (freeVerts.empty() || freeVerts.size() == previousFree) break;  // nothing new to move
     previousFree = freeVerts.size();
+    setPreconditioners(active, freeVerts);
 
     // The active tets' data in their order, contiguous: on a small region
     // (bunny00's ball map: 6446 to 7843 free vertices, their tets scattered
