@@ -539,6 +539,9 @@ constexpr int kSplitRounds = 3;
 // transport, of triceratops, spool and hand (hand's morph then ended 3.25
 // target edges from the transport's map instead of 0.60).
 constexpr int kRegionStallRounds = 4;
+// The final untangling's local repair widens to one ring at most once this
+// many tets are left (see its use).
+constexpr int kRepairFewTets = 10;
 
 // The longest edge in U of every tet that is not positive in U, or with
 // `everyEdge` all six, except edges with both ends on the boundary (a
@@ -904,6 +907,17 @@ ParamResult parameterize(const TetMesh& input, const ParamOptions& options) {
       // (24 -> 2, 3 -> 1, 1 -> 1) where without them they reach 0
       // (55 -> 2, 13 -> 0), and the morph took over.
       untangleOptions.localRepairPatches = options.domain == ParamDomain::Ball;
+      // With a few tets left, the local repair widens to one ring, not four
+      // (UntangleOptions::localRepairFewTets). Measured on bunny00 scaled by
+      // 1 + k·10⁻⁹ (cube; `param`, the final untangling in seconds, the
+      // same held phase): k = 2 35.0 -> 30.1, k = 3 18.6 -> 13.0, k = 4
+      // 27.3 -> 22.0, k = 5 28.4 -> 28.2, as given unchanged (its repairs
+      // never widen past one ring with ten or fewer left); each repair of
+      // the finishing rounds 90-230 moves and 0.06-0.08 s instead of
+      // 4000-11000 and 0.2-0.5 s. The volume ratios' p1 0.236, 0.240,
+      // 0.203, 0.214 -> 0.243, 0.240, 0.206, 0.216; one more edge split on
+      // k = 4 and two on k = 2.
+      untangleOptions.localRepairFewTets = kRepairFewTets;
       untangleOptions.targetVolumes = r.targetVolume;
       // A few tets left that wider regions do not repair: the local repair,
       // the finishing rounds and the edge splits below take them (see

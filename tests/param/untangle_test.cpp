@@ -701,6 +701,68 @@ TEST(UntangleLocalRepair, MaxMinMovesGiveTheSameBitsOnOneThread) {
     ASSERT_EQ(std::memcmp(&single.U.data()[i], &r.U.data()[i], sizeof(double)), 0) << "coordinate " << i;
 }
 
+// Vertex rings (over the tets' edges) from the vertices of the tets not
+// positive in U: 0 on those, -1 where none reaches.
+std::vector<int> ringsFromInverted(const TetMesh& m, const Eigen::MatrixX3d& U) {
+  std::vector<int> ring(static_cast<size_t>(m.V.rows()), -1);
+  std::vector<int> front;
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t) {
+    const Eigen::Vector3d a = U.row(m.T(t, 0)), b = U.row(m.T(t, 1)), c = U.row(m.T(t, 2)), d = U.row(m.T(t, 3));
+    if ((b - a).cross(c - a).dot(d - a) > 0) continue;
+    for (int k = 0; k < 4; ++k)
+      if (ring[static_cast<size_t>(m.T(t, k))] < 0) ring[static_cast<size_t>(m.T(t, k))] = 0, front.push_back(m.T(t, k));
+  }
+  for (int r = 1; !front.empty(); ++r) {
+    std::vector<int> next;
+    for (Eigen::Index t = 0; t < m.T.rows(); ++t) {
+      bool touches = false;
+      for (int k = 0; k < 4; ++k) touches = touches || ring[static_cast<size_t>(m.T(t, k))] == r - 1;
+      if (!touches) continue;
+      for (int k = 0; k < 4; ++k)
+        if (ring[static_cast<size_t>(m.T(t, k))] < 0) ring[static_cast<size_t>(m.T(t, k))] = r, next.push_back(m.T(t, k));
+    }
+    front.swap(next);
+  }
+  return ring;
+}
+
+// localRepairFewTets: with that many or fewer tets inverted, the sweeps widen
+// to one ring around them at most. Around a folded boundary face (held, so
+// no move repairs it) in a jittered grid, the default repair widens to four
+// rings and moves vertices up to there; the narrow one keeps every vertex
+// more than two rings from the tets inverted at the start, and both still
+// repair what moves can repair (an interior vertex pushed through its
+// neighbours), so both results are kept.
+TEST(UntangleLocalRepair, FewTetsWidenTheRepairToOneRingOnly) {
+  const int n = 10, s = n + 1;
+  const TetMesh m = t2stest::cubeGrid(n);
+  const auto fixed = boundaryMask(m);
+  Eigen::MatrixX3d U = m.V;
+  pushInteriorVertices(U, fixed, 11, 0.35 / n, 1);  // (every interior vertex, within 0.175 of a cell)
+  ASSERT_EQ(countNonPositiveTets(U, m.T), 0);
+  U.row(0 + s * (5 + s * 5)).swap(U.row(0 + s * (6 + s * 5)));  // fold the face x = -1
+  U(8 + s * (5 + s * 5), 0) += 1.5 * 2.0 / n;                   // and push a vertex near x = 1 through its neighbour
+  const int before = countNonPositiveTets(U, m.T);
+  const std::vector<int> ring = ringsFromInverted(m, U);
+  UntangleOptions wide;
+  wide.maxOuterIterations = 0;
+  wide.localRepairSweeps = 100;
+  UntangleOptions narrow = wide;
+  narrow.localRepairFewTets = 100;
+  int farthest[2] = {-1, -1}, after[2] = {0, 0};
+  for (int run = 0; run < 2; ++run) {
+    const UntangleResult r = untangle(m.V, m.T, U, fixed, run == 0 ? wide : narrow);
+    after[run] = r.invertedAfter;
+    for (Eigen::Index v = 0; v < U.rows(); ++v)
+      if (r.U.row(v) != U.row(v)) farthest[run] = std::max(farthest[run], ring[static_cast<size_t>(v)]);
+  }
+  EXPECT_LT(after[0], before);
+  EXPECT_LT(after[1], before);
+  EXPECT_GT(farthest[0], 2);  // (4 here)
+  EXPECT_GE(farthest[1], 0);
+  EXPECT_LE(farthest[1], 2);
+}
+
 // On the cube, face vertices move only within their face: the locked
 // coordinate keeps its bits, the others stay in [0, 1], and no boundary
 // triangle is left flipped.

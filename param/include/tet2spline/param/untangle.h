@@ -163,6 +163,12 @@ struct UntangleOptions {
   int localRepairSweeps = 100;
   bool localRepairPatches = false;
   double localRepairFraction = 0.02;
+  /// While at most this many tets are inverted, the local repair's sweeps
+  /// widen to one ring around them at most, not four (0 = always four):
+  /// the wider rings move hundreds of vertices a sweep for a few tets and
+  /// rarely take one off (untangle.cpp, maxMinSweeps). parameterize sets it
+  /// for the final untangling.
+  int localRepairFewTets = 0;
   /// Work budget: the run ends (failed, budgetExhausted) after the ε update
   /// in which the energy's tet evaluations (counting each evaluation of a
   /// tet, cones included, once) reach this many while inversions remain;
