@@ -979,13 +979,16 @@ UntangleResult untangle(const Eigen::MatrixX3d& reference, const Eigen::MatrixX4
     // Measured on bunny00 (767k tets; the final untangling's finishing
     // rounds call untangle about ten times): the comparison sort was 6% of
     // that tail's samples.
-    const std::vector<std::uint64_t> key = mortonKeys(reference, T);
     struct Keyed {
       std::uint64_t key;
       int tet;
     };
-    std::vector<Keyed> keyed(static_cast<size_t>(ntx)), scattered(static_cast<size_t>(ntx));
-    for (size_t t = 0; t < keyed.size(); ++t) keyed[t] = {key[t], static_cast<int>(t)};
+    std::vector<Keyed> keyed(static_cast<size_t>(ntx));
+    {  // (the keys alone are freed before the sort's second buffer exists)
+      const std::vector<std::uint64_t> key = mortonKeys(reference, T);
+      for (size_t t = 0; t < keyed.size(); ++t) keyed[t] = {key[t], static_cast<int>(t)};
+    }
+    std::vector<Keyed> scattered(keyed.size());
     for (int shift = 0; shift < 64; shift += 8) {
       std::array<size_t, 257> start{};
       for (const Keyed& k : keyed) ++start[((k.key >> shift) & 0xff) + 1];

@@ -702,13 +702,14 @@ TEST(UntangleLocalRepair, MaxMinMovesGiveTheSameBitsOnOneThread) {
 }
 
 // Vertex rings (over the tets' edges) from the vertices of the tets not
-// positive in U: 0 on those, -1 where none reaches.
+// positive in U (exactly, as countNonPositiveTets and the untangler test
+// them): 0 on those, -1 where none reaches.
 std::vector<int> ringsFromInverted(const TetMesh& m, const Eigen::MatrixX3d& U) {
   std::vector<int> ring(static_cast<size_t>(m.V.rows()), -1);
   std::vector<int> front;
   for (Eigen::Index t = 0; t < m.T.rows(); ++t) {
     const Eigen::Vector3d a = U.row(m.T(t, 0)), b = U.row(m.T(t, 1)), c = U.row(m.T(t, 2)), d = U.row(m.T(t, 3));
-    if ((b - a).cross(c - a).dot(d - a) > 0) continue;
+    if (orient3d(a.data(), b.data(), c.data(), d.data()) > 0) continue;
     for (int k = 0; k < 4; ++k)
       if (ring[static_cast<size_t>(m.T(t, k))] < 0) ring[static_cast<size_t>(m.T(t, k))] = 0, front.push_back(m.T(t, k));
   }
